@@ -1,0 +1,202 @@
+//! Generated meshes with known geometry and topology, for tests and benchmarks.
+
+use std::collections::HashMap;
+use std::f64::consts::TAU;
+
+use glam::DVec3;
+
+use super::TriMesh;
+
+fn build(positions: Vec<DVec3>, faces: Vec<[u32; 3]>) -> TriMesh {
+    TriMesh::from_triangles(positions, faces).expect("generated meshes are valid")
+}
+
+/// Splits each quad `(a, b, c, d)` (counter-clockwise) into two triangles along alternating diagonals.
+fn quad(faces: &mut Vec<[u32; 3]>, a: u32, b: u32, c: u32, d: u32, flip: bool) {
+    if flip {
+        faces.push([a, b, d]);
+        faces.push([b, c, d]);
+    } else {
+        faces.push([a, b, c]);
+        faces.push([a, c, d]);
+    }
+}
+
+/// A flat `nx × ny` grid on [0, sx] × [0, sy] in the plane z = 0 (a disc topologically).
+pub fn grid(nx: usize, ny: usize, sx: f64, sy: f64) -> TriMesh {
+    let mut p = Vec::new();
+    for j in 0..=ny {
+        for i in 0..=nx {
+            p.push(DVec3::new(
+                sx * i as f64 / nx as f64,
+                sy * j as f64 / ny as f64,
+                0.0,
+            ));
+        }
+    }
+    let id = |i: usize, j: usize| (j * (nx + 1) + i) as u32;
+    let mut f = Vec::new();
+    for j in 0..ny {
+        for i in 0..nx {
+            quad(
+                &mut f,
+                id(i, j),
+                id(i + 1, j),
+                id(i + 1, j + 1),
+                id(i, j + 1),
+                (i + j) % 2 == 1,
+            );
+        }
+    }
+    build(p, f)
+}
+
+/// A flat disc of radius `r`: an `n × n` grid on [-1, 1]² mapped onto the disc by the
+/// elliptical grid mapping (x√(1 − y²/2), y√(1 − x²/2)), which keeps triangles well shaped.
+pub fn disc(r: f64, n: usize) -> TriMesh {
+    let square = grid(n, n, 2.0, 2.0);
+    let p = square
+        .positions()
+        .iter()
+        .map(|q| {
+            let (x, y) = (q.x - 1.0, q.y - 1.0);
+            DVec3::new(
+                x * (1.0 - y * y / 2.0).sqrt(),
+                y * (1.0 - x * x / 2.0).sqrt(),
+                0.0,
+            ) * r
+        })
+        .collect();
+    let mut m = square;
+    m.set_positions(p);
+    m
+}
+
+/// An open cylinder of radius `r` and height `h` around the z axis (`nu` around, `nv` up).
+pub fn cylinder(r: f64, h: f64, nu: usize, nv: usize) -> TriMesh {
+    let mut p = Vec::new();
+    for j in 0..=nv {
+        for i in 0..nu {
+            let a = TAU * i as f64 / nu as f64;
+            p.push(DVec3::new(
+                r * a.cos(),
+                r * a.sin(),
+                h * j as f64 / nv as f64,
+            ));
+        }
+    }
+    let id = |i: usize, j: usize| (j * nu + i % nu) as u32;
+    let mut f = Vec::new();
+    for j in 0..nv {
+        for i in 0..nu {
+            quad(
+                &mut f,
+                id(i, j),
+                id(i + 1, j),
+                id(i + 1, j + 1),
+                id(i, j + 1),
+                false,
+            );
+        }
+    }
+    build(p, f)
+}
+
+/// A torus of revolution around z: major radius `big_r`, minor `r`, `nu` × `nv` quads.
+/// Vertex (i, j) sits at angles u = 2πi/nu (around z) and v = 2πj/nv (around the tube).
+pub fn torus(big_r: f64, r: f64, nu: usize, nv: usize) -> TriMesh {
+    let mut p = Vec::new();
+    for j in 0..nv {
+        for i in 0..nu {
+            let (u, v) = (TAU * i as f64 / nu as f64, TAU * j as f64 / nv as f64);
+            let rho = big_r + r * v.cos();
+            p.push(DVec3::new(rho * u.cos(), rho * u.sin(), r * v.sin()));
+        }
+    }
+    let id = |i: usize, j: usize| ((j % nv) * nu + i % nu) as u32;
+    let mut f = Vec::new();
+    for j in 0..nv {
+        for i in 0..nu {
+            quad(
+                &mut f,
+                id(i, j),
+                id(i + 1, j),
+                id(i + 1, j + 1),
+                id(i, j + 1),
+                false,
+            );
+        }
+    }
+    build(p, f)
+}
+
+/// A unit icosphere: the icosahedron subdivided `levels` times and projected to the sphere.
+pub fn icosphere(levels: usize) -> TriMesh {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let p: Vec<DVec3> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
+    .collect();
+    let f: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    let mut m = build(p, f);
+    for _ in 0..levels {
+        m = subdivide(&m);
+        let p = m.positions().iter().map(|x| x.normalize()).collect();
+        m.set_positions(p);
+    }
+    m
+}
+
+/// 1:4 midpoint subdivision (positions of old vertices unchanged; topology preserved).
+pub fn subdivide(mesh: &TriMesh) -> TriMesh {
+    let mut p = mesh.positions().to_vec();
+    let mut mid: HashMap<(u32, u32), u32> = HashMap::with_capacity(mesh.n_edges());
+    let mut midpoint = |a: u32, b: u32, p: &mut Vec<DVec3>| {
+        *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+            p.push(0.5 * (p[a as usize] + p[b as usize]));
+            (p.len() - 1) as u32
+        })
+    };
+    let mut f = Vec::with_capacity(mesh.n_faces() * 4);
+    for &[a, b, c] in mesh.faces() {
+        let ab = midpoint(a, b, &mut p);
+        let bc = midpoint(b, c, &mut p);
+        let ca = midpoint(c, a, &mut p);
+        f.extend_from_slice(&[[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+    }
+    build(p, f)
+}

@@ -1,0 +1,87 @@
+//! Per-face and per-vertex geometry: areas, normals, tangent bases, angles, cotangent weights,
+//! angle defects. Everything is computed on demand from positions (cheap, and never stale).
+
+use glam::DVec3;
+
+use super::TriMesh;
+
+impl TriMesh {
+    /// Cross product of two edge vectors of face `f`: twice the area times the unit normal.
+    pub fn face_area_vector(&self, f: usize) -> DVec3 {
+        let [a, b, c] = self.face(f).map(|v| self.positions[v]);
+        (b - a).cross(c - a)
+    }
+    pub fn face_area(&self, f: usize) -> f64 {
+        0.5 * self.face_area_vector(f).length()
+    }
+    /// Unit normal of face `f` (zero for a degenerate face; validated meshes have none).
+    pub fn face_normal(&self, f: usize) -> DVec3 {
+        self.face_area_vector(f).normalize_or_zero()
+    }
+    pub fn face_centroid(&self, f: usize) -> DVec3 {
+        let [a, b, c] = self.face(f).map(|v| self.positions[v]);
+        (a + b + c) / 3.0
+    }
+    /// Orthonormal tangent basis of face `f`: `e1` along its first edge, `e2 = n × e1`.
+    /// Frames, fields and parameterization gradients are expressed in this basis.
+    pub fn face_basis(&self, f: usize) -> (DVec3, DVec3) {
+        let e1 = self.vector(3 * f).normalize_or_zero();
+        let e2 = self.face_normal(f).cross(e1);
+        (e1, e2)
+    }
+    /// Interior angle of the triangle at the start vertex of halfedge `h`.
+    pub fn corner_angle(&self, h: usize) -> f64 {
+        let a = self.vector(h);
+        let b = -self.vector(self.prev(h));
+        a.cross(b).length().atan2(a.dot(b))
+    }
+    /// Cotangent of the angle opposite halfedge `h` in its face.
+    pub fn cotan_opposite(&self, h: usize) -> f64 {
+        let a = -self.vector(self.next(h));
+        let b = self.vector(self.prev(h));
+        a.dot(b) / a.cross(b).length()
+    }
+    /// Cotangent weight of edge `e`: ½ (cot α + cot β) over its one or two opposite angles.
+    pub fn cotan_weight(&self, e: usize) -> f64 {
+        let (h0, h1) = self.edge_halfedges(e);
+        0.5 * (self.cotan_opposite(h0) + h1.map_or(0.0, |h| self.cotan_opposite(h)))
+    }
+    /// Angle defect at `v`: 2π − Σ angles for interior vertices, π − Σ angles on the boundary
+    /// (the discrete Gaussian resp. geodesic curvature; Σ over a closed surface = 2πχ).
+    pub fn angle_defect(&self, v: usize) -> f64 {
+        let sum: f64 = self.outgoing(v).map(|h| self.corner_angle(h)).sum();
+        let full = if self.is_boundary_vertex(v) {
+            std::f64::consts::PI
+        } else {
+            std::f64::consts::TAU
+        };
+        full - sum
+    }
+    /// Area-weighted vertex normals.
+    pub fn vertex_normals(&self) -> Vec<DVec3> {
+        let mut n = vec![DVec3::ZERO; self.n_vertices()];
+        for f in 0..self.n_faces() {
+            let a = self.face_area_vector(f);
+            for v in self.face(f) {
+                n[v] += a;
+            }
+        }
+        n.into_iter().map(|x| x.normalize_or_zero()).collect()
+    }
+    pub fn total_area(&self) -> f64 {
+        (0..self.n_faces()).map(|f| self.face_area(f)).sum()
+    }
+    /// Axis-aligned bounding box (min, max).
+    pub fn bounding_box(&self) -> (DVec3, DVec3) {
+        let init = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        self.positions
+            .iter()
+            .fold(init, |(lo, hi), &p| (lo.min(p), hi.max(p)))
+    }
+    pub fn mean_edge_length(&self) -> f64 {
+        let sum: f64 = (0..self.n_edges())
+            .map(|e| self.vector(self.edge_halfedges(e).0).length())
+            .sum();
+        sum / self.n_edges().max(1) as f64
+    }
+}
