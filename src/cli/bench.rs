@@ -1,0 +1,125 @@
+//! `quadcover bench`: per-stage time and peak memory of the pipeline on meshes of about 10k,
+//! 100k and 1M triangles (shared meshes, subdivided in memory), printed as a table.
+//! Benchmarks measure; they never assert.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Args;
+
+use super::CliError;
+use crate::load::load_mesh;
+use crate::mesh::TriMesh;
+use crate::mesh::generate::subdivide;
+
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Folder with the shared test meshes.
+    #[arg(long, default_value = "../shared/meshes")]
+    pub meshes: PathBuf,
+    /// Largest size to run: 10k, 100k or 1m.
+    #[arg(long, default_value = "1m")]
+    pub up_to: String,
+}
+
+/// Peak resident memory of this process in MiB since the last [`reset_peak_memory`]
+/// (Linux `VmHWM`; 0 where /proc is not available).
+pub fn peak_memory_mib() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+        })
+        .map_or(0.0, |kib| kib / 1024.0)
+}
+
+/// Resets the peak-memory mark (Linux: writing 5 to /proc/self/clear_refs).
+pub fn reset_peak_memory() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+/// One row of the table: a stage, its seconds and the peak memory while it ran.
+pub struct Row {
+    pub mesh: String,
+    pub triangles: usize,
+    pub stage: String,
+    pub seconds: f64,
+    pub peak_mib: f64,
+}
+
+/// Times `f` and records the peak memory it reached.
+pub fn measure<T>(
+    rows: &mut Vec<Row>,
+    mesh: &str,
+    triangles: usize,
+    stage: &str,
+    f: impl FnOnce() -> T,
+) -> T {
+    reset_peak_memory();
+    let t = Instant::now();
+    let out = f();
+    rows.push(Row {
+        mesh: mesh.into(),
+        triangles,
+        stage: stage.into(),
+        seconds: t.elapsed().as_secs_f64(),
+        peak_mib: peak_memory_mib(),
+    });
+    out
+}
+
+/// The benchmark meshes: (name, mesh). ~10k: fandisk (13k); ~100k: spot ×16 (94k);
+/// ~1M: bunny ×16 (1.1M).
+fn bench_meshes(args: &BenchArgs) -> Result<Vec<(String, TriMesh)>, CliError> {
+    let load =
+        |name: &str| -> Result<TriMesh, CliError> { Ok(load_mesh(&args.meshes.join(name))?.mesh) };
+    let mut out = vec![("fandisk".to_string(), load("fandisk.obj")?)];
+    let big = args.up_to.to_lowercase();
+    if big == "100k" || big == "1m" {
+        out.push(("spot x16".into(), subdivide(&subdivide(&load("spot.obj")?))));
+        out.push(("bunny".into(), load("bunny.obj")?));
+    }
+    if big == "1m" {
+        out.push((
+            "bunny x16".into(),
+            subdivide(&subdivide(&load("bunny.obj")?)),
+        ));
+    }
+    Ok(out)
+}
+
+pub fn run(args: &BenchArgs) -> Result<(), CliError> {
+    let mut rows = Vec::new();
+    for (name, mesh) in bench_meshes(args)? {
+        eprintln!("bench: {name} ({} triangles)", mesh.n_faces());
+        stages(&mut rows, &name, &mesh)?;
+    }
+    print_table(&rows);
+    Ok(())
+}
+
+/// The measured stages of the pipeline on one mesh.
+fn stages(rows: &mut Vec<Row>, name: &str, mesh: &TriMesh) -> Result<(), CliError> {
+    let n = mesh.n_faces();
+    measure(rows, name, n, "topology", || mesh.topology());
+    Ok(())
+}
+
+fn print_table(rows: &[Row]) {
+    println!(
+        "{:<12} {:>10} {:<28} {:>10} {:>10}",
+        "mesh", "triangles", "stage", "ms", "peak MiB"
+    );
+    for r in rows {
+        println!(
+            "{:<12} {:>10} {:<28} {:>10.1} {:>10.0}",
+            r.mesh,
+            r.triangles,
+            r.stage,
+            r.seconds * 1e3,
+            r.peak_mib
+        );
+    }
+}

@@ -1,0 +1,49 @@
+//! `quadcover info MESH`: statistics and validation remarks of a mesh file.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use super::CliError;
+use crate::load::load_mesh;
+
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// Mesh file (OBJ, PLY, OFF or STL).
+    pub mesh: PathBuf,
+    /// Print the statistics as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: &InfoArgs) -> Result<(), CliError> {
+    let loaded = load_mesh(&args.mesh)?;
+    let topology = loaded.mesh.topology();
+    if args.json {
+        let value = serde_json::json!({
+            "file": args.mesh,
+            "file_vertices": loaded.file_vertices,
+            "topology": topology,
+            "warnings": loaded.report.warnings,
+        });
+        println!("{}", serde_json::to_string_pretty(&value)?);
+        return Ok(());
+    }
+    println!("file            {}", args.mesh.display());
+    if loaded.file_vertices != topology.vertices {
+        println!("file vertices   {}", loaded.file_vertices);
+    }
+    println!("{topology}");
+    let (lo, hi) = loaded.mesh.bounding_box();
+    println!("bounding box    {:?} .. {:?}", lo.to_array(), hi.to_array());
+    println!("mean edge       {:.6}", loaded.mesh.mean_edge_length());
+    if loaded.report.warnings.is_empty() {
+        println!("warnings        none");
+    } else {
+        println!("warnings        {}", loaded.report.warnings.len());
+        for w in &loaded.report.warnings {
+            println!("  - {w}");
+        }
+    }
+    Ok(())
+}

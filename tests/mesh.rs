@@ -1,0 +1,242 @@
+//! Foundation checks on real data: every shared mesh loads with the statistics its README gives,
+//! every broken file fails with a message naming the problem, and `quadcover info` handles both.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use quadcover::load::{LoadError, load_mesh};
+use quadcover::mesh::MeshError;
+
+fn shared_meshes() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/meshes");
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!("skipping: {} not found", dir.display());
+        None
+    }
+}
+
+fn broken(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/broken")
+        .join(name)
+}
+
+/// (file, V in file, V referenced, E, F, genus, boundary loop lengths) from shared/meshes/README.md.
+const SHARED: &[(&str, usize, usize, usize, usize, i64, &[usize])] = &[
+    (
+        "bunny.obj",
+        35947,
+        34834,
+        104288,
+        69451,
+        0,
+        &[80, 42, 40, 39, 22],
+    ),
+    ("kitten.obj", 1850, 1850, 5550, 3700, 1, &[]),
+    ("eight.obj", 5544, 5544, 16638, 11092, 2, &[]),
+    ("fertility.obj", 4494, 4494, 13500, 9000, 4, &[]),
+    ("fandisk.obj", 6475, 6475, 19419, 12946, 0, &[]),
+    ("camelhead.obj", 11381, 11381, 34084, 22704, 0, &[56]),
+    (
+        "cerebral-vessels.obj",
+        40571,
+        40571,
+        121557,
+        80979,
+        0,
+        &[59, 20, 19, 15, 14, 14, 13, 12, 11],
+    ),
+    ("max-planck.obj", 5272, 5272, 15810, 10540, 0, &[]),
+    ("spot.obj", 2930, 2930, 8784, 5856, 0, &[]),
+    ("igea.obj", 134345, 134345, 403029, 268686, 0, &[]),
+];
+
+#[test]
+fn every_shared_mesh_has_the_statistics_of_its_readme() {
+    let Some(dir) = shared_meshes() else { return };
+    for &(name, v_file, v_ref, e, f, genus, loops) in SHARED {
+        let loaded = load_mesh(&dir.join(name)).unwrap_or_else(|err| panic!("{name}: {err}"));
+        let m = &loaded.mesh;
+        let t = m.topology();
+        assert_eq!(loaded.file_vertices, v_file, "{name}: V in file");
+        assert_eq!(
+            (t.vertices, t.edges, t.faces),
+            (v_ref, e, f),
+            "{name}: V, E, F"
+        );
+        assert_eq!(t.components.len(), 1, "{name}: components");
+        assert_eq!(t.genus, genus, "{name}: genus");
+        let mut lengths: Vec<usize> = m.boundary_loops().iter().map(|l| l.len()).collect();
+        lengths.sort_unstable_by(|a, b| b.cmp(a));
+        assert_eq!(lengths, loops, "{name}: boundary loop lengths");
+        assert_eq!(
+            t.euler_characteristic,
+            2 - 2 * genus - loops.len() as i64,
+            "{name}: chi"
+        );
+        // Nothing is re-oriented or dropped, except the bunny's unreferenced vertices.
+        assert!(loaded.report.flipped_faces.is_empty(), "{name}");
+        assert_eq!(
+            loaded.report.warnings.len(),
+            usize::from(v_file != v_ref),
+            "{name}: {:?}",
+            loaded.report.warnings
+        );
+        // Gauss–Bonnet with boundary: Σ defects = 2πχ.
+        let total: f64 = (0..m.n_vertices()).map(|v| m.angle_defect(v)).sum();
+        let expected = std::f64::consts::TAU * t.euler_characteristic as f64;
+        assert!(
+            (total - expected).abs() < 1e-6 * m.n_vertices() as f64,
+            "{name}: Σ defect {total} vs {expected}"
+        );
+    }
+}
+
+#[test]
+fn bunny_keeps_the_original_index_of_every_vertex() {
+    let Some(dir) = shared_meshes() else { return };
+    let loaded = load_mesh(&dir.join("bunny.obj")).unwrap();
+    let map = &loaded.report.original_vertex;
+    assert_eq!(map.len(), 34834);
+    assert!(
+        map.windows(2).all(|w| w[0] < w[1]),
+        "vertex order must be preserved"
+    );
+    assert!(
+        loaded.report.warnings[0].contains("1113 unreferenced"),
+        "{:?}",
+        loaded.report.warnings
+    );
+}
+
+fn invalid(name: &str) -> MeshError {
+    match load_mesh(&broken(name)) {
+        Err(LoadError::Invalid { source, .. }) => source,
+        Err(e) => panic!("{name}: expected a validation error, got a read error: {e}"),
+        Ok(_) => panic!("{name}: loaded, but it is broken"),
+    }
+}
+
+#[test]
+fn topological_defects_in_files_are_reported_with_their_location() {
+    let e = invalid("nonmanifold_edge.obj");
+    assert!(
+        matches!(
+            e,
+            MeshError::NonManifoldEdge {
+                count: 1,
+                faces: 3,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("line"), "{e}");
+    let e = invalid("nonmanifold_vertex.obj");
+    assert!(matches!(e, MeshError::NonManifoldVertex { .. }), "{e}");
+    assert!(
+        e.to_string().contains("vertex") && e.to_string().contains("line"),
+        "{e}"
+    );
+    let e = invalid("nonorientable.obj");
+    assert!(matches!(e, MeshError::NonOrientable { .. }), "{e}");
+    let e = invalid("degenerate.obj");
+    assert!(
+        matches!(e, MeshError::DegenerateFace { count: 1, .. }),
+        "{e}"
+    );
+    assert!(e.to_string().contains("line"), "{e}");
+}
+
+#[test]
+fn repairable_files_load_with_warnings() {
+    let ok = |name: &str, needle: &str| {
+        let loaded = load_mesh(&broken(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(
+            loaded.report.warnings.iter().any(|w| w.contains(needle)),
+            "{name}: {:?}",
+            loaded.report.warnings
+        );
+        loaded
+    };
+    let l = ok("inconsistent_orientation.obj", "re-oriented");
+    assert_eq!(l.mesh.topology().genus, 0);
+    ok("duplicate_faces.obj", "duplicate face");
+    ok("unreferenced_vertices.obj", "unreferenced");
+}
+
+fn info(path: &Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_quadcover"))
+        .arg("info")
+        .arg(path)
+        .output()
+        .expect("run quadcover info")
+}
+
+#[test]
+fn info_prints_statistics_for_every_shared_mesh() {
+    let Some(dir) = shared_meshes() else { return };
+    for &(name, _, v_ref, _, f, genus, loops) in SHARED {
+        let out = info(&dir.join(name));
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        for (key, value) in [
+            ("vertices", v_ref),
+            ("faces", f),
+            ("boundary loops", loops.len()),
+        ] {
+            assert!(
+                text.lines()
+                    .any(|l| l.starts_with(key) && l.ends_with(&format!(" {value}"))),
+                "{name}: {key} {value} in\n{text}"
+            );
+        }
+        assert!(
+            text.lines()
+                .any(|l| l.starts_with("genus") && l.ends_with(&format!(" {genus}"))),
+            "{name}\n{text}"
+        );
+    }
+}
+
+#[test]
+fn info_exits_with_2_and_a_message_on_every_broken_file() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/broken");
+    let repairable = [
+        "inconsistent_orientation.obj",
+        "duplicate_faces.obj",
+        "unreferenced_vertices.obj",
+    ];
+    let mut n = 0;
+    for entry in std::fs::read_dir(&dir).expect("broken corpus") {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        if name.ends_with(".md") {
+            continue;
+        }
+        let out = info(&path);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!stderr.contains("panicked"), "{name} panicked: {stderr}");
+        if repairable.contains(&name.as_str()) {
+            assert!(out.status.success(), "{name}: {stderr}");
+            assert!(
+                String::from_utf8_lossy(&out.stdout).contains("warnings"),
+                "{name}"
+            );
+        } else {
+            assert_eq!(out.status.code(), Some(2), "{name}: {stderr}");
+            assert!(
+                stderr.starts_with("error: ") && stderr.len() > 15,
+                "{name}: {stderr}"
+            );
+        }
+        n += 1;
+    }
+    assert!(n >= 15, "the broken corpus has only {n} files");
+}
