@@ -1,0 +1,322 @@
+// Surface shading for the quadcover viewport and offscreen renderer.
+//
+// Vertices are per corner (3 per face, non-indexed draw), so `vertex_index % 3`
+// gives the corner and the barycentric coordinate used for the wireframe.
+//
+// Output is sRGB-encoded into an Rgba8Unorm target (the same bytes are blitted
+// into egui's non-sRGB surface or read back by the offscreen tests).
+//
+// Texture patterns are evaluated at p = uv * scale. A QuadCover parameterization
+// is only defined up to the transition maps phi_j = R^r phi_i + w (R the rotation
+// by 2pi/N, w in the lattice), so every pattern below is built to be invariant
+// under its symmetry group: the value and the line coverage depend only on the
+// Euclidean distance to lattice-invariant line sets, and the pixel footprint is
+// measured isotropically (length of dp/dx, dp/dy), which rotations preserve.
+//
+//   1 quad grid        lines x in Z, y in Z                  Z^2 x| C4
+//   2 checkerboard     cells of size 1/2 centred on Z^2       Z^2 x| C4
+//   3 triangles        the 3 line families of G6             G6  x| C6
+//   4 hexagons         Voronoi cells of G6 (centred on G6)   G6  x| C6
+//   5 stripes          bands |x - round(x)| < 1/4            Z^2 x| C2
+//   6 octagon-square   4.8.8 tiling, octagons centred on Z^2 Z^2 x| C4
+//   7 image            user texture, repeat (invariant only if the image is)
+
+struct Uniforms {
+    view_proj: mat4x4<f32>,
+    // xyz camera position, w scene radius
+    camera_pos: vec4<f32>,
+    // xyz direction towards the light (world), w ambient
+    light_dir: vec4<f32>,
+    base_color: vec4<f32>,
+    // rgb, a = opacity
+    wire_color: vec4<f32>,
+    // rgb pattern line/ink colour, a = fill contrast
+    pattern_color: vec4<f32>,
+    // x pattern scale, y wire width px, z pattern line width px, w lic frequency (cells per radius)
+    params: vec4<f32>,
+    // x lic strength, y lic length (cells), z glyph size px, w overlay line width px
+    params2: vec4<f32>,
+    // width, height, 1/width, 1/height (pixels)
+    viewport: vec4<f32>,
+    // x shading (0 smooth, 1 flat), y pattern id, z wireframe on, w symmetry N
+    modes: vec4<u32>,
+    // x lic on, y has uv, z has field, w unused
+    flags: vec4<u32>,
+}
+
+@group(0) @binding(0) var<uniform> u: Uniforms;
+@group(0) @binding(1) var pattern_tex: texture_2d<f32>;
+@group(0) @binding(2) var pattern_sampler: sampler;
+
+struct VsIn {
+    @builtin(vertex_index) index: u32,
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) face_normal: vec3<f32>,
+    @location(3) uv: vec2<f32>,
+    @location(4) field: vec3<f32>,
+}
+
+struct VsOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) face_normal: vec3<f32>,
+    @location(3) uv: vec2<f32>,
+    @location(4) field: vec3<f32>,
+    @location(5) bary: vec3<f32>,
+}
+
+@vertex
+fn vs_main(v: VsIn) -> VsOut {
+    var out: VsOut;
+    out.clip = u.view_proj * vec4<f32>(v.position, 1.0);
+    out.world = v.position;
+    out.normal = v.normal;
+    out.face_normal = v.face_normal;
+    out.uv = v.uv;
+    out.field = v.field;
+    let k = v.index % 3u;
+    out.bary = vec3<f32>(f32(k == 0u), f32(k == 1u), f32(k == 2u));
+    return out;
+}
+
+const PI: f32 = 3.14159265358979;
+const SQRT3_2: f32 = 0.86602540378;
+
+// ---------------------------------------------------------------- helpers
+
+fn linear_to_srgb(c: vec3<f32>) -> vec3<f32> {
+    let lo = c * 12.92;
+    let hi = 1.055 * pow(max(c, vec3<f32>(0.0)), vec3<f32>(1.0 / 2.4)) - 0.055;
+    return select(hi, lo, c <= vec3<f32>(0.0031308));
+}
+
+// Coverage of a line of width `width_px` pixels, given the distance `d` to the
+// line in pattern units and the pixel footprint `pix` in pattern units.
+fn line_cov(d: f32, pix: f32, width_px: f32) -> f32 {
+    return clamp(0.5 * width_px + 0.5 - abs(d) / max(pix, 1e-7), 0.0, 1.0);
+}
+
+// Signed distance to the nearest cell boundary of a unit-period 1-D checker,
+// positive on even cells.
+fn checker_wave(q: f32) -> f32 {
+    let f = fract(q);
+    let d = min(f, 1.0 - f);
+    let even = fract(q * 0.5) < 0.5;
+    return select(-d, d, even);
+}
+
+// Lattice coordinates of G6 = {a (1,0) + b (1/2, sqrt3/2)}.
+fn g6_coords(p: vec2<f32>) -> vec2<f32> {
+    let b = p.y / SQRT3_2;
+    return vec2<f32>(p.x - 0.5 * b, b);
+}
+
+fn g6_point(ab: vec2<f32>) -> vec2<f32> {
+    return vec2<f32>(ab.x + 0.5 * ab.y, SQRT3_2 * ab.y);
+}
+
+// ---------------------------------------------------------------- patterns
+// Each returns vec2(fill in [0,1], line coverage in [0,1]).
+
+fn pattern_quad(p: vec2<f32>, pix: f32, w: f32) -> vec2<f32> {
+    let f = abs(p - round(p));
+    return vec2<f32>(0.0, line_cov(min(f.x, f.y), pix, w));
+}
+
+fn pattern_checker(p: vec2<f32>, pix: f32) -> vec2<f32> {
+    // cells of side 1/2 centred on lattice points: q = 2p + 1/2 has boundaries at integers
+    let q = 2.0 * p + vec2<f32>(0.5);
+    let pq = 2.0 * pix;
+    let sx = clamp(checker_wave(q.x) / max(pq, 1e-7), -1.0, 1.0);
+    let sy = clamp(checker_wave(q.y) / max(pq, 1e-7), -1.0, 1.0);
+    return vec2<f32>(0.5 + 0.5 * sx * sy, 0.0);
+}
+
+fn pattern_triangles(p: vec2<f32>, pix: f32, w: f32) -> vec2<f32> {
+    let ab = g6_coords(p);
+    let c = ab.x + ab.y;
+    let da = abs(ab.x - round(ab.x));
+    let db = abs(ab.y - round(ab.y));
+    let dc = abs(c - round(c));
+    let d = min(da, min(db, dc)) * SQRT3_2;
+    return vec2<f32>(0.0, line_cov(d, pix, w));
+}
+
+fn pattern_hexagons(p: vec2<f32>, pix: f32, w: f32) -> vec2<f32> {
+    let ab = g6_coords(p);
+    let base = floor(ab);
+    var d1 = 1e9;
+    var d2 = 1e9;
+    var c1 = vec2<f32>(0.0);
+    var c2 = vec2<f32>(0.0);
+    for (var i = -1; i <= 2; i = i + 1) {
+        for (var j = -1; j <= 2; j = j + 1) {
+            let c = g6_point(base + vec2<f32>(f32(i), f32(j)));
+            let dd = dot(p - c, p - c);
+            if (dd < d1) {
+                d2 = d1;
+                c2 = c1;
+                d1 = dd;
+                c1 = c;
+            } else if (dd < d2) {
+                d2 = dd;
+                c2 = c;
+            }
+        }
+    }
+    // distance to the bisector of the two nearest lattice points (|c2 - c1| = 1)
+    let d = (d2 - d1) / (2.0 * max(length(c2 - c1), 1e-6));
+    let centre = 1.0 - clamp(sqrt(d1) * 2.0, 0.0, 1.0);
+    return vec2<f32>(0.35 * centre, line_cov(d, pix, w));
+}
+
+fn pattern_stripes(p: vec2<f32>, pix: f32) -> vec2<f32> {
+    // band where |x - round(x)| < 1/4; signed distance to the band edge
+    let d = 0.25 - abs(p.x - round(p.x));
+    return vec2<f32>(clamp(0.5 + d / max(pix, 1e-7), 0.0, 1.0), 0.0);
+}
+
+fn pattern_octagon_square(p: vec2<f32>, pix: f32, w: f32) -> vec2<f32> {
+    // regular octagons of apothem 1/2 centred on Z^2, squares at (1/2,1/2)+Z^2
+    let q = abs(p - round(p));
+    let d_oct = max(max(q.x, q.y), (q.x + q.y) * 0.70710678) - 0.5;
+    let in_square = clamp(0.5 + d_oct / max(pix, 1e-7), 0.0, 1.0);
+    return vec2<f32>(in_square, line_cov(d_oct, pix, w));
+}
+
+// ---------------------------------------------------------------- LIC
+
+fn hash3(p: vec3<i32>) -> f32 {
+    var h = u32(p.x) * 73856093u ^ u32(p.y) * 19349663u ^ u32(p.z) * 83492791u;
+    h = (h ^ (h >> 13u)) * 1274126177u;
+    h = h ^ (h >> 16u);
+    return f32(h & 0xffffu) / 65535.0;
+}
+
+fn value_noise(x: vec3<f32>) -> f32 {
+    let i = vec3<i32>(floor(x));
+    let f = fract(x);
+    let s = f * f * (3.0 - 2.0 * f);
+    let n000 = hash3(i);
+    let n100 = hash3(i + vec3<i32>(1, 0, 0));
+    let n010 = hash3(i + vec3<i32>(0, 1, 0));
+    let n110 = hash3(i + vec3<i32>(1, 1, 0));
+    let n001 = hash3(i + vec3<i32>(0, 0, 1));
+    let n101 = hash3(i + vec3<i32>(1, 0, 1));
+    let n011 = hash3(i + vec3<i32>(0, 1, 1));
+    let n111 = hash3(i + vec3<i32>(1, 1, 1));
+    let x00 = mix(n000, n100, s.x);
+    let x10 = mix(n010, n110, s.x);
+    let x01 = mix(n001, n101, s.x);
+    let x11 = mix(n011, n111, s.x);
+    return mix(mix(x00, x10, s.y), mix(x01, x11, s.y), s.z);
+}
+
+const LIC_TAPS: i32 = 10;
+
+// Noise fixed on the surface (a 3-D value noise evaluated at the surface point)
+// convolved with a Hann window along a straight streamline in the face's
+// tangent plane. Per face the field is constant, so this is exact LIC inside a
+// face; across edges the streaks continue as far as the field does.
+fn lic_along(x: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
+    var acc = 0.0;
+    var wsum = 0.0;
+    for (var i = -LIC_TAPS; i <= LIC_TAPS; i = i + 1) {
+        let t = f32(i) / f32(LIC_TAPS);
+        let wgt = 0.5 + 0.5 * cos(PI * t);
+        acc = acc + wgt * value_noise(x + dir * (t * len));
+        wsum = wsum + wgt;
+    }
+    let m = acc / wsum;
+    // re-expand contrast lost by averaging
+    return clamp(0.5 + (m - 0.5) * 3.5, 0.0, 1.0);
+}
+
+fn rotate_in_plane(d: vec3<f32>, n: vec3<f32>, angle: f32) -> vec3<f32> {
+    return cos(angle) * d + sin(angle) * cross(n, d);
+}
+
+// N-symmetric field: average the LIC along the N/2 distinct line directions
+// (N = 2: one family of streaks, N = 4: cross-hatch, N = 6: three families).
+fn lic_field(world: vec3<f32>, field: vec3<f32>, n: vec3<f32>, sym: u32) -> f32 {
+    let freq = u.params.w / max(u.camera_pos.w, 1e-6);
+    let x = world * freq;
+    let d0 = normalize(field);
+    let len = u.params2.y;
+    let lines = max(sym / 2u, 1u);
+    var acc = 0.0;
+    for (var k = 0u; k < lines; k = k + 1u) {
+        let d = rotate_in_plane(d0, n, f32(k) * 2.0 * PI / f32(max(sym, 1u)));
+        acc = acc + lic_along(x, d, len);
+    }
+    return acc / f32(lines);
+}
+
+// ---------------------------------------------------------------- fragment
+
+@fragment
+fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
+    // derivative-based quantities first, in uniform control flow
+    let fw_bary = fwidth(in.bary);
+    let p = in.uv * u.params.x;
+    let pix = 0.5 * (length(dpdx(p)) + length(dpdy(p)));
+
+    let geo_n = normalize(select(in.normal, in.face_normal, u.modes.x == 1u));
+    let to_eye = normalize(u.camera_pos.xyz - in.world);
+    let facing = dot(geo_n, to_eye) >= 0.0;
+    let n = select(-geo_n, geo_n, facing);
+
+    var albedo = u.base_color.rgb;
+    if (!facing) {
+        albedo = albedo * vec3<f32>(0.75, 0.55, 0.55);
+    }
+
+    // texture pattern on the parameterization
+    if (u.flags.y == 1u && u.modes.y != 0u) {
+        let w = u.params.z;
+        var fl = vec2<f32>(0.0);
+        switch u.modes.y {
+            case 1u: { fl = pattern_quad(p, pix, w); }
+            case 2u: { fl = pattern_checker(p, pix); }
+            case 3u: { fl = pattern_triangles(p, pix, w); }
+            case 4u: { fl = pattern_hexagons(p, pix, w); }
+            case 5u: { fl = pattern_stripes(p, pix); }
+            case 6u: { fl = pattern_octagon_square(p, pix, w); }
+            case 7u: {
+                let t = textureSampleGrad(pattern_tex, pattern_sampler, p, dpdx(p), dpdy(p));
+                albedo = mix(albedo, t.rgb, t.a);
+            }
+            default: {}
+        }
+        let fill_tint = mix(albedo, albedo * 0.55, u.pattern_color.a);
+        albedo = mix(albedo, fill_tint, fl.x);
+        albedo = mix(albedo, u.pattern_color.rgb, fl.y);
+    }
+
+    // field visualisation
+    if (u.flags.x == 1u && u.flags.z == 1u && dot(in.field, in.field) > 1e-12) {
+        let l = lic_field(in.world, in.field, geo_n, u.modes.w);
+        let s = u.params2.x;
+        albedo = albedo * mix(1.0, 0.35 + 1.1 * l, s);
+    }
+
+    // lighting: key light + ambient + a little specular
+    let l_dir = normalize(u.light_dir.xyz);
+    let diff = max(dot(n, l_dir), 0.0);
+    let h = normalize(l_dir + to_eye);
+    let spec = pow(max(dot(n, h), 0.0), 48.0) * 0.18;
+    let fill = max(dot(n, to_eye), 0.0) * 0.25;
+    var color = albedo * (u.light_dir.w + 0.75 * diff + fill) + vec3<f32>(spec);
+
+    // wireframe from barycentric coordinates, anti-aliased with fwidth
+    if (u.modes.z == 1u) {
+        let dpx = in.bary / max(fw_bary, vec3<f32>(1e-7));
+        let dmin = min(dpx.x, min(dpx.y, dpx.z));
+        let cov = clamp(0.5 * u.params.y + 0.5 - dmin, 0.0, 1.0) * u.wire_color.a;
+        color = mix(color, u.wire_color.rgb, cov);
+    }
+
+    return vec4<f32>(linear_to_srgb(clamp(color, vec3<f32>(0.0), vec3<f32>(1.0))), 1.0);
+}

@@ -1,0 +1,135 @@
+// Overlays drawn over the surface: thick screen-space line segments (cut graph,
+// constraints, selection, field crosses) and disc glyphs at singular vertices.
+// Shares the Uniforms block layout with mesh.wgsl.
+
+struct Uniforms {
+    view_proj: mat4x4<f32>,
+    camera_pos: vec4<f32>,
+    light_dir: vec4<f32>,
+    base_color: vec4<f32>,
+    wire_color: vec4<f32>,
+    pattern_color: vec4<f32>,
+    params: vec4<f32>,
+    // x lic strength, y lic length, z glyph size px, w overlay line width px
+    params2: vec4<f32>,
+    // width, height, 1/width, 1/height (pixels)
+    viewport: vec4<f32>,
+    modes: vec4<u32>,
+    flags: vec4<u32>,
+}
+
+@group(0) @binding(0) var<uniform> u: Uniforms;
+
+fn linear_to_srgb(c: vec3<f32>) -> vec3<f32> {
+    let lo = c * 12.92;
+    let hi = 1.055 * pow(max(c, vec3<f32>(0.0)), vec3<f32>(1.0 / 2.4)) - 0.055;
+    return select(hi, lo, c <= vec3<f32>(0.0031308));
+}
+
+// Move a world point towards the camera by `amount` scene radii so overlays
+// lying on the surface win the depth test without showing through it.
+fn pull_forward(x: vec3<f32>, amount: f32) -> vec3<f32> {
+    let to_eye = u.camera_pos.xyz - x;
+    let d = max(length(to_eye), 1e-9);
+    let shift = min(amount * u.camera_pos.w, 0.5 * d);
+    return x + to_eye / d * shift;
+}
+
+// ---------------------------------------------------------------- lines
+
+struct LineIn {
+    @builtin(vertex_index) index: u32,
+    @location(0) a: vec3<f32>,
+    @location(1) b: vec3<f32>,
+    @location(2) color: vec4<f32>,
+}
+
+struct LineOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) color: vec4<f32>,
+    // signed distance across the line in pixels
+    @location(1) across: f32,
+}
+
+@vertex
+fn vs_line(v: LineIn) -> LineOut {
+    let ca = u.view_proj * vec4<f32>(pull_forward(v.a, 0.004), 1.0);
+    let cb = u.view_proj * vec4<f32>(pull_forward(v.b, 0.004), 1.0);
+    let half_px = 0.5 * u.params2.w + 1.0;
+    let sa = ca.xy / max(ca.w, 1e-6) * u.viewport.xy * 0.5;
+    let sb = cb.xy / max(cb.w, 1e-6) * u.viewport.xy * 0.5;
+    var dir = sb - sa;
+    if (dot(dir, dir) < 1e-12) {
+        dir = vec2<f32>(1.0, 0.0);
+    }
+    dir = normalize(dir);
+    let nrm = vec2<f32>(-dir.y, dir.x);
+    // two triangles: corners (end, side)
+    var ends = array<f32, 6>(0.0, 1.0, 0.0, 0.0, 1.0, 1.0);
+    var sides = array<f32, 6>(-1.0, -1.0, 1.0, 1.0, -1.0, 1.0);
+    let e = ends[v.index];
+    let s = sides[v.index];
+    var c = mix(ca, cb, e);
+    let offset_px = nrm * s * half_px + dir * (e * 2.0 - 1.0) * half_px * 0.5;
+    let offset_ndc = offset_px * 2.0 * u.viewport.zw;
+    c = vec4<f32>(c.xy + offset_ndc * c.w, c.zw);
+    var out: LineOut;
+    out.clip = c;
+    out.color = v.color;
+    out.across = s * half_px;
+    return out;
+}
+
+@fragment
+fn fs_line(in: LineOut) -> @location(0) vec4<f32> {
+    let cov = clamp(0.5 * u.params2.w + 0.5 - abs(in.across), 0.0, 1.0);
+    if (cov <= 0.0) {
+        discard;
+    }
+    return vec4<f32>(linear_to_srgb(in.color.rgb), in.color.a * cov);
+}
+
+// ---------------------------------------------------------------- glyphs
+
+struct GlyphIn {
+    @builtin(vertex_index) index: u32,
+    @location(0) position: vec3<f32>,
+    @location(1) color: vec4<f32>,
+}
+
+struct GlyphOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) color: vec4<f32>,
+    @location(1) local: vec2<f32>,
+}
+
+@vertex
+fn vs_glyph(v: GlyphIn) -> GlyphOut {
+    var corners = array<vec2<f32>, 6>(
+        vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, -1.0), vec2<f32>(-1.0, 1.0),
+        vec2<f32>(-1.0, 1.0), vec2<f32>(1.0, -1.0), vec2<f32>(1.0, 1.0),
+    );
+    let local = corners[v.index];
+    var c = u.view_proj * vec4<f32>(pull_forward(v.position, 0.02), 1.0);
+    let offset_ndc = local * (0.5 * u.params2.z) * 2.0 * u.viewport.zw;
+    c = vec4<f32>(c.xy + offset_ndc * c.w, c.zw);
+    var out: GlyphOut;
+    out.clip = c;
+    out.color = v.color;
+    out.local = local;
+    return out;
+}
+
+@fragment
+fn fs_glyph(in: GlyphOut) -> @location(0) vec4<f32> {
+    let r = length(in.local);
+    let px = max(fwidth(r), 1e-6);
+    let alpha = clamp((1.0 - r) / px, 0.0, 1.0);
+    if (alpha <= 0.0) {
+        discard;
+    }
+    // dark outline ring so light colours stay visible on light shading
+    let ring = clamp((r - 0.72) / px, 0.0, 1.0);
+    let rgb = mix(in.color.rgb, vec3<f32>(0.02), ring);
+    return vec4<f32>(linear_to_srgb(rgb), alpha);
+}

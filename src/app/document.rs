@@ -1,0 +1,261 @@
+//! The document: the one state type through which the editor talks to the core.
+//!
+//! It owns the mesh with its load report, the field and the parameterization
+//! (in display-ready form), overlay lines and the display settings. Every
+//! change of geometry-related data bumps [`Document::revision`] and rebuilds
+//! the shared [`SceneData`], which the viewport uploads once per revision.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use glam::DVec3;
+
+use super::scene::{LineSegment, SceneData, singularity_color};
+use super::settings::DisplaySettings;
+use crate::mesh::{Topology, TriMesh};
+
+/// The default mesh: Spot by Keenan Crane (CC0).
+pub const DEFAULT_MESH_NAME: &str = "spot.obj";
+pub const DEFAULT_MESH_OBJ: &[u8] = include_bytes!("../../assets/spot.obj");
+
+/// A singular vertex of an N-symmetric field with index `index / N`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Singularity {
+    pub vertex: usize,
+    /// Numerator k of the index k/N.
+    pub index: i32,
+}
+
+/// A field in display form. Build it from a `quadcover::field::FrameField` as
+/// `FieldDisplay { symmetry: N, face_dirs: frames.iter().map(|f| f[0]).collect(), singularities }`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FieldDisplay {
+    /// N (2, 4 or 6).
+    pub symmetry: u32,
+    /// One tangent direction per face (any representative of the N directions).
+    pub face_dirs: Vec<DVec3>,
+    pub singularities: Vec<Singularity>,
+}
+
+/// A parameterization result: per-corner UVs indexed `3*f + k`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamDisplay {
+    pub corner_uvs: Vec<[f64; 2]>,
+}
+
+/// Kinds of overlay polylines.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LineKind {
+    CutGraph,
+    Constraint,
+    Selection,
+}
+
+impl LineKind {
+    /// Linear RGBA.
+    pub fn color(self) -> [f32; 4] {
+        match self {
+            LineKind::CutGraph => [0.9, 0.1, 0.05, 1.0],
+            LineKind::Constraint => [0.05, 0.75, 0.2, 1.0],
+            LineKind::Selection => [1.0, 0.55, 0.0, 1.0],
+        }
+    }
+}
+
+/// Mesh statistics shown in the side panel.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MeshStats {
+    pub vertices: usize,
+    pub edges: usize,
+    pub faces: usize,
+    pub components: usize,
+    pub genus: i64,
+    pub boundary_loops: usize,
+    pub euler_characteristic: i64,
+}
+
+impl From<&Topology> for MeshStats {
+    fn from(t: &Topology) -> Self {
+        MeshStats {
+            vertices: t.vertices,
+            edges: t.edges,
+            faces: t.faces,
+            components: t.components.len(),
+            genus: t.genus,
+            boundary_loops: t.boundary_loops,
+            euler_characteristic: t.euler_characteristic,
+        }
+    }
+}
+
+/// A freshly loaded mesh (produced by a background job).
+pub struct LoadedDocument {
+    pub path: Option<PathBuf>,
+    pub name: String,
+    pub mesh: TriMesh,
+    pub warnings: Vec<String>,
+    pub stats: MeshStats,
+    pub scene: SceneData,
+}
+
+/// Reads, validates and prepares a mesh for display. Runs off the UI thread.
+pub fn load_bytes(name: &str, bytes: &[u8]) -> Result<LoadedDocument, String> {
+    let format = crate::io::Format::from_path(Path::new(name)).unwrap_or(crate::io::Format::Obj);
+    let soup = crate::io::read_mesh_bytes(bytes, format).map_err(|e| format!("{name}: {e}"))?;
+    finish_load(None, name.to_string(), soup)
+}
+
+/// Like [`load_bytes`], from a file.
+pub fn load_path(path: &Path) -> Result<LoadedDocument, String> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string());
+    let soup = crate::io::read_mesh(path).map_err(|e| match e {
+        crate::io::ReadError::Io { .. } => e.to_string(),
+        _ => format!("{name}: {e}"),
+    })?;
+    finish_load(Some(path.to_path_buf()), name, soup)
+}
+
+fn finish_load(
+    path: Option<PathBuf>,
+    name: String,
+    soup: crate::mesh::PolygonSoup,
+) -> Result<LoadedDocument, String> {
+    let (mesh, report) = TriMesh::from_soup(&soup).map_err(|e| format!("{name}: {e}"))?;
+    let stats = MeshStats::from(&mesh.topology());
+    let scene = SceneData::from_trimesh(&mesh);
+    Ok(LoadedDocument {
+        path,
+        name,
+        mesh,
+        warnings: report.warnings,
+        stats,
+        scene,
+    })
+}
+
+/// The editor's document.
+pub struct Document {
+    pub path: Option<PathBuf>,
+    pub name: String,
+    pub mesh: Option<TriMesh>,
+    pub stats: Option<MeshStats>,
+    /// Validation / repair warnings of the load.
+    pub warnings: Vec<String>,
+    pub field: Option<FieldDisplay>,
+    pub param: Option<ParamDisplay>,
+    pub lines: Vec<(LineKind, Vec<[DVec3; 2]>)>,
+    pub display: DisplaySettings,
+    scene: Option<Arc<SceneData>>,
+    /// Base scene without field/param/overlays (rebuilt from the mesh once per load).
+    base: Option<SceneData>,
+    revision: u64,
+}
+
+impl Default for Document {
+    fn default() -> Self {
+        Document {
+            path: None,
+            name: String::new(),
+            mesh: None,
+            stats: None,
+            warnings: Vec::new(),
+            field: None,
+            param: None,
+            lines: Vec::new(),
+            display: DisplaySettings::default(),
+            scene: None,
+            base: None,
+            revision: 1,
+        }
+    }
+}
+
+impl Document {
+    /// Replaces the mesh (drops field, parameterization and overlays).
+    pub fn set_loaded(&mut self, loaded: LoadedDocument) {
+        self.path = loaded.path;
+        self.name = loaded.name;
+        self.mesh = Some(loaded.mesh);
+        self.stats = Some(loaded.stats);
+        self.warnings = loaded.warnings;
+        self.field = None;
+        self.param = None;
+        self.lines.clear();
+        self.base = Some(loaded.scene);
+        self.rebuild_scene();
+    }
+
+    /// Sets (or clears) the field; the viewport picks it up next frame.
+    pub fn set_field(&mut self, field: Option<FieldDisplay>) {
+        self.field = field;
+        self.rebuild_scene();
+    }
+
+    /// Sets (or clears) the parameterization.
+    pub fn set_param(&mut self, param: Option<ParamDisplay>) {
+        self.param = param;
+        self.rebuild_scene();
+    }
+
+    /// Replaces the overlay lines of one kind.
+    pub fn set_lines(&mut self, kind: LineKind, segments: Vec<[DVec3; 2]>) {
+        self.lines.retain(|(k, _)| *k != kind);
+        if !segments.is_empty() {
+            self.lines.push((kind, segments));
+        }
+        self.rebuild_scene();
+    }
+
+    pub fn has_param(&self) -> bool {
+        self.param.is_some()
+    }
+
+    /// Increases whenever the scene changes.
+    pub fn revision(&self) -> u64 {
+        self.revision
+    }
+
+    pub fn scene(&self) -> Option<&Arc<SceneData>> {
+        self.scene.as_ref()
+    }
+
+    fn rebuild_scene(&mut self) {
+        self.revision += 1;
+        let Some(base) = &self.base else {
+            self.scene = None;
+            return;
+        };
+        let mut scene = base.clone();
+        if let Some(p) = &self.param {
+            scene.set_corner_uvs(&p.corner_uvs);
+        }
+        if let Some(f) = &self.field {
+            scene.set_face_field(&f.face_dirs, f.symmetry);
+            if let Some(mesh) = &self.mesh {
+                for s in &f.singularities {
+                    if s.vertex < mesh.n_vertices() {
+                        let p = mesh.position(s.vertex);
+                        scene.glyphs.push(super::scene::Glyph {
+                            position: [p.x as f32, p.y as f32, p.z as f32],
+                            color: singularity_color(s.index, f.symmetry),
+                        });
+                    }
+                }
+            }
+        }
+        for (kind, segs) in &self.lines {
+            let color = kind.color();
+            for s in segs {
+                scene.lines.push(LineSegment {
+                    a: s[0].as_vec3().to_array(),
+                    b: s[1].as_vec3().to_array(),
+                    color,
+                });
+            }
+        }
+        self.scene = Some(Arc::new(scene));
+    }
+}

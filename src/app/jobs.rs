@@ -1,0 +1,105 @@
+//! Background jobs: a closure runs on its own thread and sends one result back
+//! through a channel. The UI polls every frame and never blocks on a solver.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::mpsc::{Receiver, TryRecvError, channel};
+use std::time::Instant;
+
+use super::document::{FieldDisplay, LoadedDocument, ParamDisplay};
+
+/// What a job produces.
+pub enum JobOutput {
+    Loaded(Box<LoadedDocument>),
+    Field(FieldDisplay),
+    Param(ParamDisplay),
+}
+
+/// Shared progress of a running job: a fraction in [0, 1] (or unknown) and a
+/// cancellation flag the job may check.
+#[derive(Default)]
+pub struct Progress {
+    /// Fraction * 1e6, or u32::MAX when unknown.
+    fraction: AtomicU32,
+    cancel: AtomicBool,
+}
+
+impl Progress {
+    pub fn set(&self, fraction: f32) {
+        let v = (fraction.clamp(0.0, 1.0) * 1e6) as u32;
+        self.fraction.store(v, Ordering::Relaxed);
+    }
+
+    pub fn get(&self) -> Option<f32> {
+        match self.fraction.load(Ordering::Relaxed) {
+            u32::MAX => None,
+            v => Some(v as f32 / 1e6),
+        }
+    }
+
+    pub fn cancelled(&self) -> bool {
+        self.cancel.load(Ordering::Relaxed)
+    }
+}
+
+/// A running job.
+pub struct Job {
+    pub name: String,
+    pub started: Instant,
+    pub progress: Arc<Progress>,
+    rx: Receiver<Result<JobOutput, String>>,
+}
+
+impl Job {
+    /// Starts `work` on a new thread. `ctx` (if any) is asked to repaint when it ends.
+    pub fn spawn<F>(name: impl Into<String>, ctx: Option<egui::Context>, work: F) -> Job
+    where
+        F: FnOnce(&Progress) -> Result<JobOutput, String> + Send + 'static,
+    {
+        let (tx, rx) = channel();
+        let progress = Arc::new(Progress {
+            fraction: AtomicU32::new(u32::MAX),
+            cancel: AtomicBool::new(false),
+        });
+        let p = Arc::clone(&progress);
+        let name = name.into();
+        let thread_name = format!("job: {name}");
+        let spawned = std::thread::Builder::new()
+            .name(thread_name)
+            .spawn(move || {
+                let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| work(&p)))
+                    .unwrap_or_else(|_| Err("the job panicked".to_string()));
+                let _ = tx.send(result);
+                if let Some(ctx) = ctx {
+                    ctx.request_repaint();
+                }
+            });
+        let (tx2, rx2) = channel();
+        let rx = match spawned {
+            Ok(_) => rx,
+            Err(e) => {
+                let _ = tx2.send(Err(format!("cannot start a thread: {e}")));
+                rx2
+            }
+        };
+        Job {
+            name,
+            started: Instant::now(),
+            progress,
+            rx,
+        }
+    }
+
+    /// `Some(result)` once the job has finished.
+    pub fn poll(&self) -> Option<Result<JobOutput, String>> {
+        match self.rx.try_recv() {
+            Ok(r) => Some(r),
+            Err(TryRecvError::Empty) => None,
+            Err(TryRecvError::Disconnected) => Some(Err("the job ended without a result".into())),
+        }
+    }
+
+    pub fn cancel(&self) {
+        self.progress.cancel.store(true, Ordering::Relaxed);
+    }
+}

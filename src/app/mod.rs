@@ -1,0 +1,81 @@
+//! The desktop editor (eframe + wgpu). Everything GPU/GUI lives here; the core
+//! knows nothing about it.
+//!
+//! - [`document::Document`]: the one state type (mesh, load report, field,
+//!   parameterization, overlays, display settings).
+//! - [`jobs::Job`]: background work on its own thread, results via a channel.
+//! - [`render::Renderer`]: the wgpu renderer, shared by the viewport
+//!   ([`viewport`]) and offscreen rendering ([`render::Offscreen`]).
+
+pub mod camera;
+pub mod document;
+pub mod editor;
+pub mod jobs;
+pub mod render;
+pub mod scene;
+pub mod settings;
+pub mod viewport;
+
+pub use editor::{EditorApp, EditorOptions};
+
+/// Opens the editor window. With `None` it shows the embedded default mesh (Spot).
+pub fn run_editor(path: Option<std::path::PathBuf>) -> eframe::Result<()> {
+    let options = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_title("quadcover")
+            .with_inner_size([1280.0, 800.0])
+            .with_drag_and_drop(true),
+        ..Default::default()
+    };
+    eframe::run_native(
+        "quadcover",
+        options,
+        Box::new(move |cc| {
+            Ok(Box::new(EditorApp::new(
+                cc,
+                EditorOptions {
+                    open: path,
+                    recent_store: editor::default_recent_store(),
+                },
+            )))
+        }),
+    )
+}
+
+#[cfg(test)]
+mod shader_tests {
+    /// Parses and validates every file in shaders/ with naga, so a new shader
+    /// cannot escape validation.
+    #[test]
+    fn all_shaders_validate() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+        let mut count = 0;
+        let mut entries: Vec<_> = std::fs::read_dir(&dir)
+            .expect("shaders/ exists")
+            .map(|e| e.expect("dir entry").path())
+            .collect();
+        entries.sort();
+        for path in entries {
+            let src = std::fs::read_to_string(&path).expect("shader is UTF-8 text");
+            assert_eq!(
+                path.extension().and_then(|e| e.to_str()),
+                Some("wgsl"),
+                "unexpected file in shaders/: {}",
+                path.display()
+            );
+            let module = naga::front::wgsl::parse_str(&src)
+                .unwrap_or_else(|e| panic!("{}:\n{}", path.display(), e.emit_to_string(&src)));
+            naga::valid::Validator::new(
+                naga::valid::ValidationFlags::all(),
+                naga::valid::Capabilities::all(),
+            )
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{}:\n{}", path.display(), e.emit_to_string(&src)));
+            count += 1;
+        }
+        assert!(
+            count >= 3,
+            "expected the shaders of the renderer, found {count}"
+        );
+    }
+}

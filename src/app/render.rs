@@ -1,0 +1,760 @@
+//! The wgpu renderer. One code path for the editor viewport and for offscreen
+//! rendering: both render a [`SceneData`] into a [`RenderTarget`] (multisampled
+//! colour + depth, resolved into an `Rgba8Unorm` texture holding sRGB-encoded
+//! bytes). The viewport then blits that texture into egui's pass; offscreen
+//! callers read it back with [`read_rgba`].
+
+use std::num::NonZeroU64;
+
+use bytemuck::{Pod, Zeroable};
+use wgpu::util::DeviceExt;
+
+use super::camera::OrbitCamera;
+use super::scene::{Glyph, LineSegment, SceneData, Vertex};
+use super::settings::{DisplayMode, DisplaySettings, Pattern, Shading};
+
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+pub const SAMPLE_COUNT: u32 = 4;
+
+pub const MESH_WGSL: &str = include_str!("../../shaders/mesh.wgsl");
+pub const OVERLAY_WGSL: &str = include_str!("../../shaders/overlay.wgsl");
+pub const BLIT_WGSL: &str = include_str!("../../shaders/blit.wgsl");
+
+/// Mirrors `struct Uniforms` in shaders/mesh.wgsl and shaders/overlay.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct Uniforms {
+    pub view_proj: [[f32; 4]; 4],
+    pub camera_pos: [f32; 4],
+    pub light_dir: [f32; 4],
+    pub base_color: [f32; 4],
+    pub wire_color: [f32; 4],
+    pub pattern_color: [f32; 4],
+    pub params: [f32; 4],
+    pub params2: [f32; 4],
+    pub viewport: [f32; 4],
+    pub modes: [u32; 4],
+    pub flags: [u32; 4],
+}
+
+/// Colour + depth targets of one size.
+pub struct RenderTarget {
+    pub width: u32,
+    pub height: u32,
+    msaa_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
+    /// Resolved colour (COLOR_FORMAT), sampled by the viewport blit and copied by readback.
+    pub color: wgpu::Texture,
+    pub color_view: wgpu::TextureView,
+}
+
+impl RenderTarget {
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> RenderTarget {
+        let width = width.max(1);
+        let height = height.max(1);
+        let size = wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        };
+        let tex = |label, format, samples, usage| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size,
+                mip_level_count: 1,
+                sample_count: samples,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let msaa = tex(
+            "quadcover msaa color",
+            COLOR_FORMAT,
+            SAMPLE_COUNT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        );
+        let depth = tex(
+            "quadcover depth",
+            DEPTH_FORMAT,
+            SAMPLE_COUNT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        );
+        let color = tex(
+            "quadcover color",
+            COLOR_FORMAT,
+            1,
+            wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_SRC,
+        );
+        RenderTarget {
+            width,
+            height,
+            msaa_view: msaa.create_view(&Default::default()),
+            depth_view: depth.create_view(&Default::default()),
+            color_view: color.create_view(&Default::default()),
+            color,
+        }
+    }
+}
+
+/// Buffers of one uploaded scene. Built once per document change.
+struct GpuScene {
+    vertices: wgpu::Buffer,
+    n_vertices: u32,
+    lines: Option<(wgpu::Buffer, u32)>,
+    glyphs: Option<(wgpu::Buffer, u32)>,
+    has_uv: bool,
+    has_field: bool,
+    symmetry: u32,
+    radius: f32,
+}
+
+pub struct Renderer {
+    mesh_pipeline: wgpu::RenderPipeline,
+    line_pipeline: wgpu::RenderPipeline,
+    glyph_pipeline: wgpu::RenderPipeline,
+    mesh_bgl: wgpu::BindGroupLayout,
+    uniform_buffer: wgpu::Buffer,
+    mesh_bind_group: wgpu::BindGroup,
+    overlay_bind_group: wgpu::BindGroup,
+    sampler: wgpu::Sampler,
+    pattern_view: wgpu::TextureView,
+    scene: Option<GpuScene>,
+    /// Number of scene uploads so far (lets tests check buffers are not rebuilt per frame).
+    pub uploads: u64,
+}
+
+fn vertex_attrs() -> [wgpu::VertexAttribute; 5] {
+    wgpu::vertex_attr_array![
+        0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Float32x2, 4 => Float32x3
+    ]
+}
+
+fn line_attrs() -> [wgpu::VertexAttribute; 3] {
+    wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4]
+}
+
+fn glyph_attrs() -> [wgpu::VertexAttribute; 2] {
+    wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4]
+}
+
+impl Renderer {
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Renderer {
+        let mesh_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("mesh.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(MESH_WGSL.into()),
+        });
+        let overlay_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("overlay.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(OVERLAY_WGSL.into()),
+        });
+        let uniform_size = NonZeroU64::new(std::mem::size_of::<Uniforms>() as u64);
+        let uniform_entry = wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: uniform_size,
+            },
+            count: None,
+        };
+        let mesh_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("quadcover mesh bgl"),
+            entries: &[
+                uniform_entry,
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let overlay_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("quadcover overlay bgl"),
+            entries: &[uniform_entry],
+        });
+        let mesh_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("quadcover mesh layout"),
+            bind_group_layouts: &[Some(&mesh_bgl)],
+            immediate_size: 0,
+        });
+        let overlay_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("quadcover overlay layout"),
+            bind_group_layouts: &[Some(&overlay_bgl)],
+            immediate_size: 0,
+        });
+
+        let multisample = wgpu::MultisampleState {
+            count: SAMPLE_COUNT,
+            mask: !0,
+            alpha_to_coverage_enabled: false,
+        };
+        let depth = |write: bool| wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(write),
+            depth_compare: Some(wgpu::CompareFunction::LessEqual),
+            stencil: wgpu::StencilState::default(),
+            bias: wgpu::DepthBiasState::default(),
+        };
+        let blend_target = [Some(wgpu::ColorTargetState {
+            format: COLOR_FORMAT,
+            blend: Some(wgpu::BlendState::ALPHA_BLENDING),
+            write_mask: wgpu::ColorWrites::ALL,
+        })];
+        let opaque_target = [Some(wgpu::ColorTargetState {
+            format: COLOR_FORMAT,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        })];
+
+        let v_attrs = vertex_attrs();
+        let mesh_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("quadcover mesh"),
+            layout: Some(&mesh_layout),
+            vertex: wgpu::VertexState {
+                module: &mesh_module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: std::mem::size_of::<Vertex>() as u64,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &v_attrs,
+                })],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(depth(true)),
+            multisample,
+            fragment: Some(wgpu::FragmentState {
+                module: &mesh_module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &opaque_target,
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let l_attrs = line_attrs();
+        let line_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("quadcover lines"),
+            layout: Some(&overlay_layout),
+            vertex: wgpu::VertexState {
+                module: &overlay_module,
+                entry_point: Some("vs_line"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: std::mem::size_of::<LineSegment>() as u64,
+                    step_mode: wgpu::VertexStepMode::Instance,
+                    attributes: &l_attrs,
+                })],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(depth(false)),
+            multisample,
+            fragment: Some(wgpu::FragmentState {
+                module: &overlay_module,
+                entry_point: Some("fs_line"),
+                compilation_options: Default::default(),
+                targets: &blend_target,
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let g_attrs = glyph_attrs();
+        let glyph_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("quadcover glyphs"),
+            layout: Some(&overlay_layout),
+            vertex: wgpu::VertexState {
+                module: &overlay_module,
+                entry_point: Some("vs_glyph"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: std::mem::size_of::<Glyph>() as u64,
+                    step_mode: wgpu::VertexStepMode::Instance,
+                    attributes: &g_attrs,
+                })],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(depth(false)),
+            multisample,
+            fragment: Some(wgpu::FragmentState {
+                module: &overlay_module,
+                entry_point: Some("fs_glyph"),
+                compilation_options: Default::default(),
+                targets: &blend_target,
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+
+        let uniform_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("quadcover uniforms"),
+            size: std::mem::size_of::<Uniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("quadcover pattern sampler"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::Repeat,
+            address_mode_w: wgpu::AddressMode::Repeat,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let overlay_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("quadcover overlay bg"),
+            layout: &overlay_bgl,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: uniform_buffer.as_entire_binding(),
+            }],
+        });
+        let (pattern_view, mesh_bind_group) = {
+            let (w, h, rgba) = default_pattern_image();
+            let view = upload_rgba(device, queue, w, h, &rgba);
+            let bg = mesh_bind_group(device, &mesh_bgl, &uniform_buffer, &view, &sampler);
+            (view, bg)
+        };
+        Renderer {
+            mesh_pipeline,
+            line_pipeline,
+            glyph_pipeline,
+            mesh_bgl,
+            uniform_buffer,
+            mesh_bind_group,
+            overlay_bind_group,
+            sampler,
+            pattern_view,
+            scene: None,
+            uploads: 0,
+        }
+    }
+
+    /// Uploads the scene (vertex, line and glyph buffers). Call once per change.
+    pub fn upload_scene(&mut self, device: &wgpu::Device, scene: &SceneData) {
+        let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("quadcover vertices"),
+            contents: if scene.vertices.is_empty() {
+                &[0u8; std::mem::size_of::<Vertex>()]
+            } else {
+                bytemuck::cast_slice(&scene.vertices)
+            },
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        let instances = |label, bytes: &[u8], n: usize| {
+            (n > 0).then(|| {
+                let b = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: bytes,
+                    usage: wgpu::BufferUsages::VERTEX,
+                });
+                (b, n as u32)
+            })
+        };
+        self.scene = Some(GpuScene {
+            vertices,
+            n_vertices: scene.vertices.len() as u32,
+            lines: instances(
+                "quadcover lines",
+                bytemuck::cast_slice(&scene.lines),
+                scene.lines.len(),
+            ),
+            glyphs: instances(
+                "quadcover glyphs",
+                bytemuck::cast_slice(&scene.glyphs),
+                scene.glyphs.len(),
+            ),
+            has_uv: scene.has_uv,
+            has_field: scene.has_field,
+            symmetry: scene.symmetry,
+            radius: scene.radius(),
+        });
+        self.uploads += 1;
+    }
+
+    pub fn clear_scene(&mut self) {
+        self.scene = None;
+    }
+
+    pub fn has_scene(&self) -> bool {
+        self.scene.is_some()
+    }
+
+    /// Replaces the image used by [`Pattern::Image`] (RGBA8, sRGB-encoded).
+    pub fn set_pattern_image(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        width: u32,
+        height: u32,
+        rgba: &[u8],
+    ) {
+        self.pattern_view = upload_rgba(device, queue, width, height, rgba);
+        self.mesh_bind_group = mesh_bind_group(
+            device,
+            &self.mesh_bgl,
+            &self.uniform_buffer,
+            &self.pattern_view,
+            &self.sampler,
+        );
+    }
+
+    pub fn uniforms(
+        &self,
+        camera: &OrbitCamera,
+        settings: &DisplaySettings,
+        width: u32,
+        height: u32,
+    ) -> Uniforms {
+        let (has_uv, has_field, symmetry, radius) = match &self.scene {
+            Some(s) => (s.has_uv, s.has_field, s.symmetry, s.radius),
+            None => (false, false, 4, 1.0),
+        };
+        let aspect = width as f32 / height.max(1) as f32;
+        let eye = camera.eye();
+        let pattern = match settings.mode {
+            DisplayMode::Pattern => settings.pattern,
+            _ => Pattern::None,
+        };
+        let b = settings.base_color;
+        Uniforms {
+            view_proj: camera.view_proj(aspect).to_cols_array_2d(),
+            camera_pos: [eye.x, eye.y, eye.z, radius],
+            light_dir: camera.light_dir().extend(0.18).to_array(),
+            base_color: [b[0], b[1], b[2], 1.0],
+            wire_color: [0.02, 0.02, 0.03, 0.85],
+            pattern_color: [0.03, 0.03, 0.05, 0.45],
+            params: [
+                settings.pattern_scale,
+                settings.line_width,
+                settings.line_width * 1.4,
+                settings.lic_frequency,
+            ],
+            params2: [
+                settings.lic_strength,
+                settings.lic_length,
+                settings.glyph_size_px,
+                settings.overlay_line_width_px,
+            ],
+            viewport: [
+                width as f32,
+                height as f32,
+                1.0 / width.max(1) as f32,
+                1.0 / height.max(1) as f32,
+            ],
+            modes: [
+                (settings.shading == Shading::Flat) as u32,
+                pattern as u32,
+                settings.wireframe as u32,
+                symmetry,
+            ],
+            flags: [
+                (settings.mode == DisplayMode::Field) as u32,
+                has_uv as u32,
+                has_field as u32,
+                0,
+            ],
+        }
+    }
+
+    /// Encodes the scene render into `target` (clears it first).
+    pub fn render(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &OrbitCamera,
+        settings: &DisplaySettings,
+    ) {
+        let u = self.uniforms(camera, settings, target.width, target.height);
+        queue.write_buffer(&self.uniform_buffer, 0, bytemuck::bytes_of(&u));
+        let bg = settings.background;
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("quadcover scene"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &target.msaa_view,
+                resolve_target: Some(&target.color_view),
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color {
+                        r: bg[0] as f64 / 255.0,
+                        g: bg[1] as f64 / 255.0,
+                        b: bg[2] as f64 / 255.0,
+                        a: 1.0,
+                    }),
+                    store: wgpu::StoreOp::Discard,
+                },
+                depth_slice: None,
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &target.depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
+                stencil_ops: None,
+            }),
+            occlusion_query_set: None,
+            timestamp_writes: None,
+            multiview_mask: None,
+        });
+        let Some(scene) = &self.scene else {
+            return;
+        };
+        if scene.n_vertices > 0 {
+            pass.set_pipeline(&self.mesh_pipeline);
+            pass.set_bind_group(0, &self.mesh_bind_group, &[]);
+            pass.set_vertex_buffer(0, scene.vertices.slice(..));
+            pass.draw(0..scene.n_vertices, 0..1);
+        }
+        if settings.show_lines
+            && let Some((buf, n)) = &scene.lines
+        {
+            pass.set_pipeline(&self.line_pipeline);
+            pass.set_bind_group(0, &self.overlay_bind_group, &[]);
+            pass.set_vertex_buffer(0, buf.slice(..));
+            pass.draw(0..6, 0..*n);
+        }
+        if settings.show_singularities
+            && let Some((buf, n)) = &scene.glyphs
+        {
+            pass.set_pipeline(&self.glyph_pipeline);
+            pass.set_bind_group(0, &self.overlay_bind_group, &[]);
+            pass.set_vertex_buffer(0, buf.slice(..));
+            pass.draw(0..6, 0..*n);
+        }
+    }
+}
+
+fn mesh_bind_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    uniforms: &wgpu::Buffer,
+    view: &wgpu::TextureView,
+    sampler: &wgpu::Sampler,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("quadcover mesh bg"),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: uniforms.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::TextureView(view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: wgpu::BindingResource::Sampler(sampler),
+            },
+        ],
+    })
+}
+
+/// Uploads an sRGB RGBA8 image as an `Rgba8Unorm` texture (the shader works on
+/// encoded values, like the rest of the pipeline).
+fn upload_rgba(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    width: u32,
+    height: u32,
+    rgba: &[u8],
+) -> wgpu::TextureView {
+    let size = wgpu::Extent3d {
+        width,
+        height,
+        depth_or_array_layers: 1,
+    };
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("quadcover pattern image"),
+        size,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba8Unorm,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    queue.write_texture(
+        texture.as_image_copy(),
+        rgba,
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(4 * width),
+            rows_per_image: Some(height),
+        },
+        size,
+    );
+    texture.create_view(&Default::default())
+}
+
+/// A small built-in image for the image pattern: an "F" glyph, which shows the
+/// orientation of the parameterization (it has no rotational symmetry).
+pub fn default_pattern_image() -> (u32, u32, Vec<u8>) {
+    let n = 64u32;
+    let mut rgba = Vec::with_capacity((n * n * 4) as usize);
+    for y in 0..n {
+        for x in 0..n {
+            // texture v grows upwards in parameter space; rows are stored top-down
+            let (fx, fy) = (x as f32 / n as f32, 1.0 - (y as f32 + 0.5) / n as f32);
+            let stem = (0.25..0.4).contains(&fx) && (0.15..0.85).contains(&fy);
+            let top = (0.25..0.75).contains(&fx) && (0.72..0.85).contains(&fy);
+            let mid = (0.25..0.62).contains(&fx) && (0.45..0.57).contains(&fy);
+            let ink = stem || top || mid;
+            let c = if ink {
+                [200u8, 40, 30, 255]
+            } else {
+                [235, 225, 200, 255]
+            };
+            rgba.extend_from_slice(&c);
+        }
+    }
+    (n, n, rgba)
+}
+
+/// Copies a `COLOR_FORMAT` texture to the CPU as tightly packed RGBA8 rows.
+pub fn read_rgba(device: &wgpu::Device, queue: &wgpu::Queue, texture: &wgpu::Texture) -> Vec<u8> {
+    let width = texture.width();
+    let height = texture.height();
+    let unpadded = 4 * width;
+    let padded =
+        unpadded.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("quadcover readback"),
+        size: (padded * height) as u64,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: None,
+            },
+        },
+        texture.size(),
+    );
+    queue.submit([encoder.finish()]);
+    let slice = buffer.slice(..);
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    let _ = device.poll(wgpu::PollType::wait_indefinitely());
+    let mut out = Vec::with_capacity((unpadded * height) as usize);
+    if let Ok(Ok(())) = rx.recv() {
+        if let Ok(mapped) = slice.get_mapped_range() {
+            for row in mapped.chunks(padded as usize) {
+                out.extend_from_slice(&row[..unpadded as usize]);
+            }
+        }
+        buffer.unmap();
+    }
+    out
+}
+
+/// Renders with an existing device: the same path as the viewport, then reads
+/// the resolved colour back. Returns RGBA8 (sRGB) rows, top row first.
+pub fn render_to_rgba(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    renderer: &Renderer,
+    camera: &OrbitCamera,
+    settings: &DisplaySettings,
+    width: u32,
+    height: u32,
+) -> image::RgbaImage {
+    let target = RenderTarget::new(device, width, height);
+    let mut encoder = device.create_command_encoder(&Default::default());
+    renderer.render(queue, &mut encoder, &target, camera, settings);
+    queue.submit([encoder.finish()]);
+    let data = read_rgba(device, queue, &target.color);
+    image::RgbaImage::from_raw(target.width, target.height, data)
+        .unwrap_or_else(|| image::RgbaImage::new(target.width, target.height))
+}
+
+/// A headless device + renderer (for tests and the CLI).
+pub struct Offscreen {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub renderer: Renderer,
+    pub adapter_info: wgpu::AdapterInfo,
+}
+
+impl Offscreen {
+    /// Creates a device on any adapter (honours `WGPU_BACKEND`). `Err` when
+    /// there is no adapter.
+    pub fn new() -> Result<Offscreen, String> {
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            ..Default::default()
+        }))
+        .map_err(|e| format!("no wgpu adapter: {e}"))?;
+        let adapter_info = adapter.get_info();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("quadcover offscreen"),
+            required_features: wgpu::Features::empty(),
+            required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),
+            ..Default::default()
+        }))
+        .map_err(|e| format!("cannot create wgpu device: {e}"))?;
+        let renderer = Renderer::new(&device, &queue);
+        Ok(Offscreen {
+            device,
+            queue,
+            renderer,
+            adapter_info,
+        })
+    }
+
+    pub fn upload(&mut self, scene: &SceneData) {
+        self.renderer.upload_scene(&self.device, scene);
+    }
+
+    pub fn render(
+        &self,
+        camera: &OrbitCamera,
+        settings: &DisplaySettings,
+        width: u32,
+        height: u32,
+    ) -> image::RgbaImage {
+        render_to_rgba(
+            &self.device,
+            &self.queue,
+            &self.renderer,
+            camera,
+            settings,
+            width,
+            height,
+        )
+    }
+}

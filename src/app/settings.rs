@@ -1,0 +1,139 @@
+//! Display settings of the viewport (part of the document).
+
+/// Surface shading.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Shading {
+    #[default]
+    Smooth,
+    Flat,
+}
+
+/// Texture pattern drawn from the per-corner UVs. The discriminant is the
+/// pattern id used by `shaders/mesh.wgsl`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Pattern {
+    #[default]
+    None = 0,
+    QuadGrid = 1,
+    Checkerboard = 2,
+    Triangles = 3,
+    Hexagons = 4,
+    Stripes = 5,
+    OctagonSquare = 6,
+    Image = 7,
+}
+
+impl Pattern {
+    pub const ALL: [Pattern; 8] = [
+        Pattern::None,
+        Pattern::QuadGrid,
+        Pattern::Checkerboard,
+        Pattern::Triangles,
+        Pattern::Hexagons,
+        Pattern::Stripes,
+        Pattern::OctagonSquare,
+        Pattern::Image,
+    ];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            Pattern::None => "None",
+            Pattern::QuadGrid => "Quad grid",
+            Pattern::Checkerboard => "Checkerboard",
+            Pattern::Triangles => "Triangles (G6)",
+            Pattern::Hexagons => "Hexagons (G6)",
+            Pattern::Stripes => "Stripes",
+            Pattern::OctagonSquare => "Octagon-square (4.8.8)",
+            Pattern::Image => "Image texture",
+        }
+    }
+
+    /// Whether the pattern is invariant under rotation by 2*pi/N (so seams of an
+    /// N-symmetric parameterization are invisible).
+    pub fn fits_symmetry(self, n: u32) -> bool {
+        match self {
+            Pattern::None | Pattern::Image => true,
+            Pattern::QuadGrid | Pattern::Checkerboard | Pattern::OctagonSquare => {
+                n == 1 || n == 2 || n == 4
+            }
+            Pattern::Triangles | Pattern::Hexagons => matches!(n, 1 | 2 | 3 | 6),
+            Pattern::Stripes => n == 1 || n == 2,
+        }
+    }
+}
+
+/// How the surface is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum DisplayMode {
+    /// Shaded surface only.
+    #[default]
+    Shaded,
+    /// Shaded surface with the texture pattern of the parameterization.
+    Pattern,
+    /// Shaded surface with a LIC of the field.
+    Field,
+}
+
+impl DisplayMode {
+    pub const ALL: [DisplayMode; 3] = [
+        DisplayMode::Shaded,
+        DisplayMode::Pattern,
+        DisplayMode::Field,
+    ];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            DisplayMode::Shaded => "Shaded",
+            DisplayMode::Pattern => "Texture pattern",
+            DisplayMode::Field => "Field (LIC)",
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct DisplaySettings {
+    pub mode: DisplayMode,
+    pub shading: Shading,
+    pub wireframe: bool,
+    pub pattern: Pattern,
+    /// Pattern cells per parameter unit.
+    pub pattern_scale: f32,
+    /// Line width of patterns and wireframe, pixels.
+    pub line_width: f32,
+    /// Noise cells per scene radius for the LIC.
+    pub lic_frequency: f32,
+    /// Streak length in noise cells.
+    pub lic_length: f32,
+    /// 0..1 blend of the LIC over the shading.
+    pub lic_strength: f32,
+    pub show_singularities: bool,
+    pub show_lines: bool,
+    pub glyph_size_px: f32,
+    pub overlay_line_width_px: f32,
+    /// Linear RGB.
+    pub base_color: [f32; 3],
+    /// sRGB background.
+    pub background: [u8; 3],
+}
+
+impl Default for DisplaySettings {
+    fn default() -> Self {
+        DisplaySettings {
+            mode: DisplayMode::Shaded,
+            shading: Shading::Smooth,
+            wireframe: false,
+            pattern: Pattern::QuadGrid,
+            pattern_scale: 1.0,
+            line_width: 1.2,
+            lic_frequency: 120.0,
+            lic_length: 8.0,
+            lic_strength: 0.9,
+            show_singularities: true,
+            show_lines: true,
+            glyph_size_px: 14.0,
+            overlay_line_width_px: 2.5,
+            base_color: [0.62, 0.66, 0.72],
+            background: [38, 40, 46],
+        }
+    }
+}

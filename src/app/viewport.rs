@@ -1,0 +1,184 @@
+//! The egui paint callback: renders the scene into the renderer's own
+//! multisampled colour + depth target during `prepare`, then blits the
+//! resolved texture into egui's render pass during `paint`.
+
+use std::sync::Arc;
+
+use super::camera::OrbitCamera;
+use super::render::{BLIT_WGSL, RenderTarget, Renderer};
+use super::scene::SceneData;
+use super::settings::DisplaySettings;
+
+/// Lives in `egui_wgpu::CallbackResources`.
+pub struct ViewportResources {
+    pub renderer: Renderer,
+    target: Option<RenderTarget>,
+    blit_pipeline: wgpu::RenderPipeline,
+    blit_bgl: wgpu::BindGroupLayout,
+    blit_sampler: wgpu::Sampler,
+    blit_bind_group: Option<wgpu::BindGroup>,
+    /// Revision of the scene currently uploaded.
+    pub scene_revision: Option<u64>,
+}
+
+impl ViewportResources {
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        target_format: wgpu::TextureFormat,
+    ) -> ViewportResources {
+        let renderer = Renderer::new(device, queue);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("blit.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(BLIT_WGSL.into()),
+        });
+        let blit_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("quadcover blit bgl"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("quadcover blit layout"),
+            bind_group_layouts: &[Some(&blit_bgl)],
+            immediate_size: 0,
+        });
+        let blit_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("quadcover blit"),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(target_format.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let blit_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("quadcover blit sampler"),
+            mag_filter: wgpu::FilterMode::Nearest,
+            min_filter: wgpu::FilterMode::Nearest,
+            ..Default::default()
+        });
+        ViewportResources {
+            renderer,
+            target: None,
+            blit_pipeline,
+            blit_bgl,
+            blit_sampler,
+            blit_bind_group: None,
+            scene_revision: None,
+        }
+    }
+
+    fn ensure_target(&mut self, device: &wgpu::Device, width: u32, height: u32) {
+        let ok = self
+            .target
+            .as_ref()
+            .is_some_and(|t| t.width == width.max(1) && t.height == height.max(1));
+        if ok {
+            return;
+        }
+        let target = RenderTarget::new(device, width, height);
+        self.blit_bind_group = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("quadcover blit bg"),
+            layout: &self.blit_bgl,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&target.color_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::Sampler(&self.blit_sampler),
+                },
+            ],
+        }));
+        self.target = Some(target);
+    }
+
+    /// Uploads `scene` unless `revision` is already on the GPU.
+    pub fn sync_scene(&mut self, device: &wgpu::Device, revision: u64, scene: Option<&SceneData>) {
+        if self.scene_revision == Some(revision) {
+            return;
+        }
+        match scene {
+            Some(s) => self.renderer.upload_scene(device, s),
+            None => self.renderer.clear_scene(),
+        }
+        self.scene_revision = Some(revision);
+    }
+}
+
+/// One frame's request. Cheap to build every frame: the scene is shared and
+/// only uploaded when `revision` changes.
+pub struct ViewportCallback {
+    pub camera: OrbitCamera,
+    pub settings: DisplaySettings,
+    pub size_px: [u32; 2],
+    pub revision: u64,
+    pub scene: Option<Arc<SceneData>>,
+}
+
+impl egui_wgpu::CallbackTrait for ViewportCallback {
+    fn prepare(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        _screen: &egui_wgpu::ScreenDescriptor,
+        encoder: &mut wgpu::CommandEncoder,
+        resources: &mut egui_wgpu::CallbackResources,
+    ) -> Vec<wgpu::CommandBuffer> {
+        let Some(res) = resources.get_mut::<ViewportResources>() else {
+            return Vec::new();
+        };
+        res.sync_scene(device, self.revision, self.scene.as_deref());
+        res.ensure_target(device, self.size_px[0], self.size_px[1]);
+        if let Some(target) = &res.target {
+            res.renderer
+                .render(queue, encoder, target, &self.camera, &self.settings);
+        }
+        Vec::new()
+    }
+
+    fn paint(
+        &self,
+        _info: egui::PaintCallbackInfo,
+        pass: &mut wgpu::RenderPass<'static>,
+        resources: &egui_wgpu::CallbackResources,
+    ) {
+        let Some(res) = resources.get::<ViewportResources>() else {
+            return;
+        };
+        if let Some(bg) = &res.blit_bind_group {
+            pass.set_pipeline(&res.blit_pipeline);
+            pass.set_bind_group(0, bg, &[]);
+            pass.draw(0..3, 0..1);
+        }
+    }
+}

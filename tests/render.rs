@@ -1,0 +1,423 @@
+//! Offscreen render tests through wgpu (Mesa lavapipe on CI). Without an
+//! adapter they print a message and pass, unless QUADCOVER_REQUIRE_GPU=1.
+//! Images are written to target/render-tests/.
+
+use std::path::PathBuf;
+
+use glam::{DVec2, DVec3, Vec3};
+use quadcover::app::camera::OrbitCamera;
+use quadcover::app::document::{DEFAULT_MESH_NAME, DEFAULT_MESH_OBJ, load_bytes};
+use quadcover::app::render::Offscreen;
+use quadcover::app::scene::{Glyph, LineSegment, SceneData, singularity_color};
+use quadcover::app::settings::{DisplayMode, DisplaySettings, Pattern, Shading};
+use quadcover::app::viewport::ViewportResources;
+
+fn offscreen() -> Option<Offscreen> {
+    match Offscreen::new() {
+        Ok(o) => {
+            eprintln!("adapter: {:?}", o.adapter_info);
+            Some(o)
+        }
+        Err(e) => {
+            if std::env::var("QUADCOVER_REQUIRE_GPU").as_deref() == Ok("1") {
+                panic!("QUADCOVER_REQUIRE_GPU=1 but {e}");
+            }
+            eprintln!("skipping render test: {e}");
+            None
+        }
+    }
+}
+
+fn out_dir() -> PathBuf {
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target"));
+    let dir = target.join("render-tests");
+    std::fs::create_dir_all(&dir).expect("create target/render-tests");
+    dir
+}
+
+fn save(img: &image::RgbaImage, name: &str) {
+    let path = out_dir().join(name);
+    img.save(&path).expect("write png");
+    eprintln!("wrote {}", path.display());
+}
+
+fn luminance(p: &image::Rgba<u8>) -> f32 {
+    (0.2126 * p[0] as f32 + 0.7152 * p[1] as f32 + 0.0722 * p[2] as f32) / 255.0
+}
+
+/// A flat n x n grid on [0,1]^2 at z = 0 with per-corner UVs `uv(x, y)`.
+fn flat_square(n: usize, uv: impl Fn(DVec2) -> DVec2) -> SceneData {
+    let mut pos = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            pos.push(DVec3::new(i as f64 / n as f64, j as f64 / n as f64, 0.0));
+        }
+    }
+    let idx = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+    let mut faces = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            faces.push([idx(i, j), idx(i + 1, j), idx(i + 1, j + 1)]);
+            faces.push([idx(i, j), idx(i + 1, j + 1), idx(i, j + 1)]);
+        }
+    }
+    let mut scene = SceneData::from_triangles(&pos, &faces);
+    let uvs: Vec<[f64; 2]> = faces
+        .iter()
+        .flat_map(|f| f.iter().map(|&v| pos[v as usize]))
+        .map(|p| {
+            let t = uv(DVec2::new(p.x, p.y));
+            [t.x, t.y]
+        })
+        .collect();
+    scene.set_corner_uvs(&uvs);
+    scene
+}
+
+/// Camera looking straight down -z at the unit square, +y up in the image.
+fn top_camera(scene: &SceneData) -> OrbitCamera {
+    let mut cam = OrbitCamera {
+        yaw: 0.0,
+        pitch: 0.0,
+        ..OrbitCamera::default()
+    };
+    cam.fit(scene.bbox);
+    cam
+}
+
+fn plain_settings() -> DisplaySettings {
+    DisplaySettings {
+        base_color: [0.8, 0.8, 0.8],
+        ..DisplaySettings::default()
+    }
+}
+
+#[test]
+fn default_mesh_renders_non_empty_without_black_pixels() {
+    let Some(mut off) = offscreen() else { return };
+    let doc = load_bytes(DEFAULT_MESH_NAME, DEFAULT_MESH_OBJ).expect("spot loads");
+    off.upload(&doc.scene);
+    let mut cam = OrbitCamera::default();
+    cam.fit(doc.scene.bbox);
+    let settings = DisplaySettings::default();
+    let bg = settings.background;
+    for (name, shading, wire) in [
+        ("spot_smooth.png", Shading::Smooth, false),
+        ("spot_flat_wire.png", Shading::Flat, true),
+    ] {
+        let s = DisplaySettings {
+            shading,
+            wireframe: wire,
+            ..settings.clone()
+        };
+        let img = off.render(&cam, &s, 480, 360);
+        save(&img, name);
+        let total = (img.width() * img.height()) as usize;
+        let covered = img.pixels().filter(|p| [p[0], p[1], p[2]] != bg).count();
+        let black = img
+            .pixels()
+            .filter(|p| p[0] < 3 && p[1] < 3 && p[2] < 3)
+            .count();
+        assert!(
+            covered > total / 10,
+            "{name}: mesh covers only {covered} of {total} pixels"
+        );
+        if !wire {
+            assert!(
+                black < total / 1000,
+                "{name}: {black} black pixels (NaN shading?)"
+            );
+        }
+        assert!(img.pixels().all(|p| p[3] == 255), "{name}: not opaque");
+    }
+}
+
+/// Runs of "line" pixels along row `y` inside columns [x0, x1).
+fn line_runs(img: &image::RgbaImage, y: u32, x0: u32, x1: u32) -> Vec<f32> {
+    let lum: Vec<f32> = (x0..x1).map(|x| luminance(img.get_pixel(x, y))).collect();
+    let mut sorted = lum.clone();
+    sorted.sort_by(f32::total_cmp);
+    let bright = sorted[sorted.len() * 9 / 10];
+    let thr = 0.6 * bright;
+    let mut runs = Vec::new();
+    let mut start = None;
+    for (i, &l) in lum.iter().enumerate() {
+        match (l < thr, start) {
+            (true, None) => start = Some(i),
+            (false, Some(s)) => {
+                runs.push(x0 as f32 + 0.5 * (s + i - 1) as f32);
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    if let Some(s) = start {
+        runs.push(x0 as f32 + 0.5 * (s + lum.len() - 1) as f32);
+    }
+    runs
+}
+
+#[test]
+fn quad_grid_lines_have_expected_density() {
+    let Some(mut off) = offscreen() else { return };
+    let k = 8.0;
+    let scene = flat_square(16, |p| p * k);
+    off.upload(&scene);
+    let cam = top_camera(&scene);
+    let settings = DisplaySettings {
+        mode: DisplayMode::Pattern,
+        pattern: Pattern::QuadGrid,
+        pattern_scale: 1.0,
+        ..plain_settings()
+    };
+    let (w, h) = (512u32, 512u32);
+    let img = off.render(&cam, &settings, w, h);
+    save(&img, "square_quad_grid.png");
+
+    // where the unit square lands on screen
+    let vp = cam.view_proj(1.0);
+    let to_px = |p: Vec3| {
+        let c = vp.project_point3(p);
+        ((c.x + 1.0) * 0.5 * w as f32, (1.0 - c.y) * 0.5 * h as f32)
+    };
+    let (ax, _) = to_px(Vec3::new(0.0, 0.5, 0.0));
+    let (bx, _) = to_px(Vec3::new(1.0, 0.5, 0.0));
+    let side = bx - ax;
+    assert!(side > 200.0, "square too small on screen: {side}");
+    // interior lines only (the borders sit on the mesh edge)
+    for y in [h / 2 + 7, h / 2 - 29, h / 2 + 51] {
+        let half_cell = 0.5 * side / k as f32;
+        let runs = line_runs(&img, y, (ax + half_cell) as u32, (bx - half_cell) as u32);
+        assert_eq!(
+            runs.len(),
+            k as usize - 1,
+            "row {y}: expected {} interior grid lines, found {runs:?}",
+            k - 1.0
+        );
+        let spacing: Vec<f32> = runs.windows(2).map(|r| r[1] - r[0]).collect();
+        let expected = side / k as f32;
+        for s in spacing {
+            assert!(
+                (s - expected).abs() < 2.0,
+                "line spacing {s} px, expected {expected}"
+            );
+        }
+    }
+}
+
+fn structure_orientation(img: &image::RgbaImage, margin: u32) -> (f32, f32) {
+    let (w, h) = img.dimensions();
+    let l = |x: u32, y: u32| luminance(img.get_pixel(x, y));
+    let (mut jxx, mut jxy, mut jyy) = (0.0f64, 0.0f64, 0.0f64);
+    for y in margin..h - margin {
+        for x in margin..w - margin {
+            let gx = (l(x + 1, y) - l(x - 1, y)) as f64;
+            let gy = (l(x, y + 1) - l(x, y - 1)) as f64;
+            jxx += gx * gx;
+            jxy += gx * gy;
+            jyy += gy * gy;
+        }
+    }
+    // dominant gradient direction; streaks run perpendicular to it
+    let theta_g = 0.5 * (2.0 * jxy).atan2(jxx - jyy);
+    let tr = jxx + jyy;
+    let det = jxx * jyy - jxy * jxy;
+    let disc = (0.25 * tr * tr - det).max(0.0).sqrt();
+    let (l1, l2) = (0.5 * tr + disc, 0.5 * tr - disc);
+    let coherence = ((l1 - l2) / (l1 + l2).max(1e-12)) as f32;
+    ((theta_g + std::f64::consts::FRAC_PI_2) as f32, coherence)
+}
+
+fn angle_diff_mod_pi(a: f32, b: f32) -> f32 {
+    let d = (a - b).rem_euclid(std::f32::consts::PI);
+    d.min(std::f32::consts::PI - d)
+}
+
+#[test]
+fn lic_of_constant_field_is_oriented_along_the_field() {
+    let Some(mut off) = offscreen() else { return };
+    for angle_deg in [30.0f64, -65.0] {
+        let a = angle_deg.to_radians();
+        let dir = DVec3::new(a.cos(), a.sin(), 0.0);
+        let mut scene = flat_square(8, |p| p);
+        scene.set_face_field(&vec![dir; scene.n_faces()], 2);
+        off.upload(&scene);
+        let mut cam = top_camera(&scene);
+        cam.zoom(0.6); // fill the image with the square
+        let settings = DisplaySettings {
+            mode: DisplayMode::Field,
+            lic_strength: 1.0,
+            ..plain_settings()
+        };
+        let img = off.render(&cam, &settings, 384, 384);
+        save(&img, &format!("lic_constant_{angle_deg}.png"));
+        let (theta, coherence) = structure_orientation(&img, 40);
+        // image y points down
+        let expected = (-a as f32).rem_euclid(std::f32::consts::PI);
+        let err = angle_diff_mod_pi(theta, expected).to_degrees();
+        assert!(
+            err < 8.0,
+            "streak orientation {:.1} deg, field {:.1} deg (error {err:.1})",
+            theta.to_degrees(),
+            expected.to_degrees()
+        );
+        assert!(coherence > 0.3, "streaks not coherent: {coherence}");
+    }
+}
+
+/// Each pattern is invariant under its symmetry group: rendering with
+/// uv' = R^r uv + w (R rotation by 2pi/N, w a lattice vector) gives the same image.
+#[test]
+fn patterns_are_invariant_under_their_symmetry_group() {
+    let Some(mut off) = offscreen() else { return };
+    let s3 = 3f64.sqrt() / 2.0;
+    let cases = [
+        (Pattern::QuadGrid, 4, DVec2::new(2.0, -3.0)),
+        (Pattern::Checkerboard, 4, DVec2::new(1.0, 0.0)),
+        (Pattern::OctagonSquare, 4, DVec2::new(-1.0, 2.0)),
+        (Pattern::Stripes, 2, DVec2::new(3.0, 1.0)),
+        (Pattern::Triangles, 6, DVec2::new(1.0 + 0.5, s3)),
+        (Pattern::Hexagons, 6, DVec2::new(-2.0 + 0.5 * 3.0, 3.0 * s3)),
+    ];
+    for (pattern, n, w) in cases {
+        let k = 5.3;
+        let theta = 2.0 * std::f64::consts::PI / n as f64;
+        let rot = |p: DVec2| {
+            DVec2::new(
+                theta.cos() * p.x - theta.sin() * p.y,
+                theta.sin() * p.x + theta.cos() * p.y,
+            )
+        };
+        let base = flat_square(8, |p| (p - 0.5) * k);
+        let moved = flat_square(8, |p| rot((p - 0.5) * k) + w);
+        let cam = top_camera(&base);
+        let settings = DisplaySettings {
+            mode: DisplayMode::Pattern,
+            pattern,
+            ..plain_settings()
+        };
+        off.upload(&base);
+        let a = off.render(&cam, &settings, 256, 256);
+        off.upload(&moved);
+        let b = off.render(&cam, &settings, 256, 256);
+        let name = format!("{pattern:?}").to_lowercase();
+        save(&a, &format!("pattern_{name}.png"));
+        let mut diff_sum = 0u64;
+        let mut big = 0usize;
+        for (p, q) in a.pixels().zip(b.pixels()) {
+            let d = (0..3)
+                .map(|c| p[c].abs_diff(q[c]) as u64)
+                .max()
+                .unwrap_or(0);
+            diff_sum += d;
+            if d > 40 {
+                big += 1;
+            }
+        }
+        let mean = diff_sum as f64 / (a.width() * a.height()) as f64;
+        // the pattern must actually show something
+        let lum: Vec<f32> = a.pixels().map(luminance).collect();
+        let lo = lum.iter().cloned().fold(f32::MAX, f32::min);
+        let hi = lum.iter().cloned().fold(f32::MIN, f32::max);
+        assert!(hi - lo > 0.2, "{pattern:?}: no visible pattern");
+        assert!(
+            mean < 1.5 && big < 60,
+            "{pattern:?} not invariant under rotation by 2pi/{n} + {w}: mean diff {mean:.2}, {big} pixels differ a lot"
+        );
+    }
+}
+
+#[test]
+fn overlays_and_field_on_default_mesh() {
+    let Some(mut off) = offscreen() else { return };
+    let doc = load_bytes(DEFAULT_MESH_NAME, DEFAULT_MESH_OBJ).expect("spot loads");
+    let mesh = &doc.mesh;
+    let mut scene = doc.scene.clone();
+    // synthetic field: projection of the x axis; synthetic UVs: planar (x, y)
+    let dirs: Vec<DVec3> = (0..mesh.n_faces())
+        .map(|f| {
+            let n = mesh.face_normal(f);
+            (DVec3::X - n * n.dot(DVec3::X)).normalize_or_zero()
+        })
+        .collect();
+    scene.set_face_field(&dirs, 4);
+    let uvs: Vec<[f64; 2]> = mesh
+        .faces()
+        .iter()
+        .flat_map(|f| f.iter().map(|&v| mesh.position(v as usize)))
+        .map(|p| [p.x * 10.0, p.y * 10.0])
+        .collect();
+    scene.set_corner_uvs(&uvs);
+    for (i, k) in [(0usize, -1), (500, 1), (1000, -2), (1500, 2), (2000, 3)] {
+        let p = mesh.position(i);
+        scene.glyphs.push(Glyph {
+            position: [p.x as f32, p.y as f32, p.z as f32],
+            color: singularity_color(k, 4),
+        });
+    }
+    for e in 0..200 {
+        let [a, b] = mesh.edge_vertices(e * 7);
+        scene.lines.push(LineSegment {
+            a: mesh.position(a).as_vec3().to_array(),
+            b: mesh.position(b).as_vec3().to_array(),
+            color: [0.9, 0.1, 0.05, 1.0],
+        });
+    }
+    off.upload(&scene);
+    let mut cam = OrbitCamera::default();
+    cam.fit(scene.bbox);
+    let field = DisplaySettings {
+        mode: DisplayMode::Field,
+        ..DisplaySettings::default()
+    };
+    let lic = off.render(&cam, &field, 480, 360);
+    save(&lic, "spot_lic.png");
+    let pat = DisplaySettings {
+        mode: DisplayMode::Pattern,
+        pattern: Pattern::QuadGrid,
+        ..DisplaySettings::default()
+    };
+    let quad = off.render(&cam, &pat, 480, 360);
+    save(&quad, "spot_quad_overlays.png");
+    let none = DisplaySettings {
+        show_lines: false,
+        show_singularities: false,
+        ..pat.clone()
+    };
+    let plain = off.render(&cam, &none, 480, 360);
+    // overlays change some pixels, and red line pixels appear
+    let changed = quad
+        .pixels()
+        .zip(plain.pixels())
+        .filter(|(a, b)| a != b)
+        .count();
+    assert!(changed > 200, "overlays changed only {changed} pixels");
+    let red = quad
+        .pixels()
+        .filter(|p| p[0] > 180 && p[1] < 110 && p[2] < 110)
+        .count();
+    assert!(red > 100, "cut-graph lines not visible ({red} red pixels)");
+    // LIC differs from plain shading
+    let shaded = off.render(&cam, &DisplaySettings::default(), 480, 360);
+    let lic_changed = lic
+        .pixels()
+        .zip(shaded.pixels())
+        .filter(|(a, b)| a != b)
+        .count();
+    assert!(lic_changed > 5000, "LIC barely visible: {lic_changed}");
+}
+
+#[test]
+fn viewport_uploads_once_per_revision() {
+    let Some(off) = offscreen() else { return };
+    let mut res = ViewportResources::new(&off.device, &off.queue, wgpu::TextureFormat::Rgba8Unorm);
+    let scene = flat_square(2, |p| p);
+    for _ in 0..5 {
+        res.sync_scene(&off.device, 7, Some(&scene));
+    }
+    assert_eq!(res.renderer.uploads, 1);
+    res.sync_scene(&off.device, 8, Some(&scene));
+    assert_eq!(res.renderer.uploads, 2);
+}
