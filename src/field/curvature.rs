@@ -1,0 +1,164 @@
+//! Principal curvature per face from the edge shape operator (thesis sec. 3.1, after
+//! Hildebrandt & Polthier / Cohen-Steiner & Morvan) and the reliability weights of eq. (3.4).
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::transport::FaceBases;
+use crate::mesh::TriMesh;
+
+/// Principal curvatures per face (`k1 >= k2`, signed, convex = positive for outward normals) and
+/// the angle of the `k1` direction in the face basis (the `k2` direction is at `+π/2`).
+#[derive(Clone, Debug, Default)]
+pub struct Curvature {
+    pub k1: Vec<f64>,
+    pub k2: Vec<f64>,
+    pub dir1: Vec<f64>,
+}
+
+/// Symmetric 3x3 matrix stored as (xx, xy, xz, yy, yz, zz).
+type Sym3 = [f64; 6];
+
+fn outer(a: DVec3, w: f64) -> Sym3 {
+    [
+        w * a.x * a.x,
+        w * a.x * a.y,
+        w * a.x * a.z,
+        w * a.y * a.y,
+        w * a.y * a.z,
+        w * a.z * a.z,
+    ]
+}
+
+fn quad_form(s: &Sym3, a: DVec3, b: DVec3) -> f64 {
+    a.x * (s[0] * b.x + s[1] * b.y + s[2] * b.z)
+        + a.y * (s[1] * b.x + s[3] * b.y + s[4] * b.z)
+        + a.z * (s[2] * b.x + s[4] * b.y + s[5] * b.z)
+}
+
+/// Eigen-decomposition of the symmetric 2x2 matrix [[a, b], [b, c]]:
+/// (larger eigenvalue, smaller eigenvalue, angle of the larger one's eigenvector).
+pub fn eig2(a: f64, b: f64, c: f64) -> (f64, f64, f64) {
+    let mean = 0.5 * (a + c);
+    let r = (0.25 * (a - c) * (a - c) + b * b).sqrt();
+    (mean + r, mean - r, 0.5 * (2.0 * b).atan2(a - c))
+}
+
+impl Curvature {
+    pub fn compute(mesh: &TriMesh, bases: &FaceBases) -> Curvature {
+        let nv = mesh.n_vertices();
+        // Eq. (3.1): S(e) = H_e (ê × N_e)(ê × N_e)^T, with N_e the normalised mean of the two face
+        // normals and H_e = 2|e| cos(Θ_e/2) the integrated mean curvature, Θ_e the interior
+        // dihedral angle (π for a flat edge), i.e. 2|e| sin(φ/2) with φ the angle between the
+        // normals, signed positive on convex edges. Boundary edges contribute nothing.
+        let edge_s: Vec<Option<Sym3>> = (0..mesh.n_edges())
+            .into_par_iter()
+            .map(|e| {
+                let (h0, h1) = mesh.edge_halfedges(e);
+                let h1 = h1?;
+                let (ni, nj) = (
+                    bases.normal[mesh.face_of(h0)],
+                    bases.normal[mesh.face_of(h1)],
+                );
+                let d = mesh.vector(h0);
+                let len = d.length();
+                let ne = (ni + nj).normalize_or_zero();
+                if len == 0.0 || ne == DVec3::ZERO {
+                    return None;
+                }
+                let sin_half = (0.5 * (ni - nj).length()).min(1.0);
+                let sign = if ni.cross(nj).dot(d) >= 0.0 {
+                    1.0
+                } else {
+                    -1.0
+                };
+                let h = sign * 2.0 * len * sin_half;
+                Some(outer((d / len).cross(ne), h))
+            })
+            .collect();
+        // Vertex shape operator: sum over incident edges, normalised by (2/3) of the star area so
+        // that the integrated edge quantities become curvatures (each edge is counted at two
+        // vertices and each face at three).
+        let mut vs = vec![[0.0; 6]; nv];
+        for (e, s) in edge_s.iter().enumerate() {
+            if let Some(s) = s {
+                for v in mesh.edge_vertices(e) {
+                    for k in 0..6 {
+                        vs[v][k] += s[k];
+                    }
+                }
+            }
+        }
+        let mut star = vec![0.0; nv];
+        for f in 0..mesh.n_faces() {
+            let a = mesh.face_area(f);
+            for v in mesh.face(f) {
+                star[v] += a;
+            }
+        }
+        // Eq. (3.2): S(t) = Σ ρ_jk S(e_jk) with ρ = 2/3 for the edges of t and 1/3 for edges
+        // sharing one vertex — the mean of the three vertex operators.
+        let data: Vec<(f64, f64, f64)> = (0..mesh.n_faces())
+            .into_par_iter()
+            .map(|f| {
+                let mut s = [0.0; 6];
+                for v in mesh.face(f) {
+                    let w = if star[v] > 0.0 {
+                        1.5 / star[v] / 3.0
+                    } else {
+                        0.0
+                    };
+                    for k in 0..6 {
+                        s[k] += w * vs[v][k];
+                    }
+                }
+                let (e1, e2) = (bases.e1[f], bases.e2[f]);
+                eig2(
+                    quad_form(&s, e1, e1),
+                    quad_form(&s, e1, e2),
+                    quad_form(&s, e2, e2),
+                )
+            })
+            .collect();
+        let mut c = Curvature::default();
+        for (k1, k2, d) in data {
+            c.k1.push(k1);
+            c.k2.push(k2);
+            c.dir1.push(d);
+        }
+        c
+    }
+
+    /// Eq. (3.4): ω_i = |κ1 − κ2| / max_j |κ1 − κ2|, then all but the most reliable `fraction` of
+    /// the faces where `candidate` holds are set to 0.
+    pub fn reliability(&self, fraction: f64, candidate: &[bool]) -> Vec<f64> {
+        let aniso: Vec<f64> = self
+            .k1
+            .iter()
+            .zip(&self.k2)
+            .map(|(a, b)| (a - b).abs())
+            .collect();
+        let max = aniso.iter().cloned().fold(0.0, f64::max);
+        if max <= 0.0 || !max.is_finite() || fraction <= 0.0 {
+            return vec![0.0; aniso.len()];
+        }
+        let mut cand: Vec<f64> = aniso
+            .iter()
+            .zip(candidate)
+            .filter(|(_, c)| **c)
+            .map(|(a, _)| *a)
+            .collect();
+        if cand.is_empty() {
+            return vec![0.0; aniso.len()];
+        }
+        let keep = ((fraction.min(1.0) * cand.len() as f64).ceil() as usize).clamp(1, cand.len());
+        let idx = cand.len() - keep;
+        let (_, thr, _) = cand.select_nth_unstable_by(idx, f64::total_cmp);
+        let thr = (*thr).max(f64::MIN_POSITIVE);
+        aniso
+            .iter()
+            .zip(candidate)
+            .map(|(a, c)| if *c && *a >= thr { a / max } else { 0.0 })
+            .collect()
+    }
+}

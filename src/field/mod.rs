@@ -1,0 +1,403 @@
+//! Frame fields (thesis ch. 3, sec. 4.1.1, 4.2): principal curvature, 2-, 4- and 6-fold fields,
+//! reliability-weighted smoothing, singularities, density, JSON import/export.
+//!
+//! # Field model (see docs/CONTRACTS.md)
+//! Per face a reference frame (U_i, V_i) in the face's tangent plane: the rows of the target
+//! Jacobian of the parameterization, so |U| = |V| = 1/h for grid size h. Generated fields are
+//! isotropic, V = J U with J = n × · (counter-clockwise quarter turn about the face normal) — also
+//! for N = 6: the parameterization uses Euclidean texture coordinates with the lattice G_6
+//! (eq. 4.2), and the 6-fold symmetry is the 60° rotation of texture space. Frames may be
+//! general (scaled, non-orthogonal) on import.
+//!
+//! Per interior edge e with halfedges (h0, h1), i = face(h0), j = face(h1), the matching
+//! r_e = r_ij ∈ 0..N means (U_j; V_j) ≈ M_{r_ij} (U_i; V_i) after unfolding j into i's plane,
+//! with the 2×2 matrix acting on the stacked rows (thesis sec. 4.1.1, R_N^k):
+//!   M_r = [[cos(2πr/N), sin(2πr/N)], [−sin(2πr/N), cos(2πr/N)]]   (see [`matching_matrix`]),
+//! i.e. U_j ≈ cos·U_i + sin·V_i; for V = J U this rotates the frame counter-clockwise by 2πr/N.
+//! A parameterization then satisfies φ_j = M_{r_ij} φ_i + w_ij. r_ji = −r_ij mod N.
+//! In angles (θ = angle of U in the face basis, κ_ij the transport angle, [`transport`]):
+//! θ_j ≈ θ_i + κ_ij + 2π r_ij / N.
+
+pub mod classify;
+pub mod curvature;
+pub mod density;
+pub mod index;
+pub mod io;
+pub mod smoothing;
+pub mod transport;
+
+use std::f64::consts::TAU;
+use std::time::Instant;
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+pub use classify::ShapeClass;
+pub use curvature::Curvature;
+pub use density::{Density, ScaleFunction};
+pub use index::{IndexReport, Singularity, compute_indices};
+pub use smoothing::Relaxation;
+
+use crate::mesh::TriMesh;
+use crate::sparse::SolverError;
+use transport::{EdgeTransport, FaceBases, NO_FACE, wrap_pi};
+
+/// Rotational symmetry order N of the field.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Symmetry {
+    /// N = 2: stripes (sec. 4.2).
+    Two,
+    /// N = 4: quads (QuadCover).
+    Four,
+    /// N = 6: hexagons / triangles (HexCover, sec. 4.1).
+    Six,
+}
+
+impl Symmetry {
+    pub fn n(self) -> u32 {
+        match self {
+            Symmetry::Two => 2,
+            Symmetry::Four => 4,
+            Symmetry::Six => 6,
+        }
+    }
+    pub fn from_n(n: u32) -> Result<Symmetry, FieldError> {
+        match n {
+            2 => Ok(Symmetry::Two),
+            4 => Ok(Symmetry::Four),
+            6 => Ok(Symmetry::Six),
+            _ => Err(FieldError::InvalidParameter(format!(
+                "symmetry must be 2, 4 or 6, got {n}"
+            ))),
+        }
+    }
+}
+
+/// The matrix M_r acting on the stacked frame rows (U; V) and on texture coordinates, see the
+/// module docs: [[cos a, sin a], [−sin a, cos a]] with a = 2πr/N.
+pub fn matching_matrix(symmetry: Symmetry, r: i32) -> [[f64; 2]; 2] {
+    let a = TAU * r.rem_euclid(symmetry.n() as i32) as f64 / symmetry.n() as f64;
+    let (s, c) = a.sin_cos();
+    [[c, s], [-s, c]]
+}
+
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum FieldError {
+    #[error("invalid field parameter: {0}")]
+    InvalidParameter(String),
+    #[error("frame field file: {0}")]
+    Format(String),
+    #[error("frame field does not fit the mesh: {0}")]
+    MeshMismatch(String),
+    #[error("the mesh has no faces")]
+    EmptyMesh,
+    #[error(transparent)]
+    Solver(#[from] SolverError),
+}
+
+/// A frame field per the data contract (docs/CONTRACTS.md).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameField {
+    pub symmetry: Symmetry,
+    /// Per face (U, V), 3-D vectors in the face's tangent plane.
+    pub frames: Vec<[DVec3; 2]>,
+    /// Per edge the matching in 0..N (0 on boundary edges).
+    pub matchings: Vec<i32>,
+}
+
+impl FrameField {
+    /// Counts, matching range, finite frames, boundary matchings 0.
+    pub fn validate(&self, mesh: &TriMesh) -> Result<(), FieldError> {
+        if self.frames.len() != mesh.n_faces() || self.matchings.len() != mesh.n_edges() {
+            return Err(FieldError::MeshMismatch(format!(
+                "field has {} frames and {} matchings, mesh has {} faces and {} edges",
+                self.frames.len(),
+                self.matchings.len(),
+                mesh.n_faces(),
+                mesh.n_edges()
+            )));
+        }
+        let n = self.symmetry.n() as i32;
+        if let Some(f) = self
+            .frames
+            .iter()
+            .position(|fr| !fr[0].is_finite() || !fr[1].is_finite())
+        {
+            return Err(FieldError::Format(format!(
+                "frame of face {f} is not finite"
+            )));
+        }
+        for (e, &r) in self.matchings.iter().enumerate() {
+            if !(0..n).contains(&r) {
+                return Err(FieldError::Format(format!(
+                    "matching of edge {e} is {r}, not in 0..{n}"
+                )));
+            }
+            if r != 0 && mesh.is_boundary_edge(e) {
+                return Err(FieldError::Format(format!(
+                    "boundary edge {e} has matching {r}, expected 0"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Matching r_ij seen from face `i` across edge `e` (r_ji = −r_ij mod N).
+    pub fn matching_from(&self, mesh: &TriMesh, e: usize, from_face: usize) -> i32 {
+        let n = self.symmetry.n() as i32;
+        let (h0, _) = mesh.edge_halfedges(e);
+        let r = self.matchings[e];
+        if mesh.face_of(h0) == from_face {
+            r
+        } else {
+            (-r).rem_euclid(n)
+        }
+    }
+}
+
+/// What guides the field.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Guidance {
+    /// Principal curvature directions on the most reliable faces (N = 4), resp. on the most
+    /// reliable cylindrical faces (N = 2, 6), extended by smoothing.
+    #[default]
+    Curvature,
+    /// The smoothest field, anchored at one face per component (for shapes without reliable
+    /// curvature).
+    Smooth,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FieldParams {
+    pub symmetry: Symmetry,
+    pub guidance: Guidance,
+    /// Weight of E_align against E_smooth (eq. 3.5, 3.6): 0 = smoothest.
+    pub tau: f64,
+    /// Fraction of the candidate faces kept as alignment constraints (most reliable first).
+    pub reliable_fraction: f64,
+    /// A face is planar (sec. 4.1.1) when ρ = |(κ1 − κ2, κ1 + κ2)| < planar_threshold / L, with L
+    /// the bounding-box diagonal.
+    pub planar_threshold: f64,
+    pub relaxation: Relaxation,
+    pub density: Density,
+    pub scale: ScaleFunction,
+}
+
+impl Default for FieldParams {
+    fn default() -> FieldParams {
+        FieldParams {
+            symmetry: Symmetry::Four,
+            guidance: Guidance::Curvature,
+            tau: 1.0,
+            reliable_fraction: 0.1,
+            planar_threshold: 1.0,
+            relaxation: Relaxation::Complex,
+            density: Density::default(),
+            scale: ScaleFunction::Uniform,
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct FieldResult {
+    pub field: FrameField,
+    /// Angle of U per face in the face basis (`mesh.face_basis`).
+    pub theta: Vec<f64>,
+    pub curvature: Curvature,
+    /// Reference (curvature) direction per face, angle in the face basis.
+    pub reference: Vec<f64>,
+    /// Reliability weight ω_i actually used (0 = unconstrained).
+    pub omega: Vec<f64>,
+    pub classes: Vec<ShapeClass>,
+    /// Grid size h.
+    pub grid_size: f64,
+    /// Per-face density multiplier m_i (|U_i| = m_i / h).
+    pub multipliers: Vec<f64>,
+    pub indices: IndexReport,
+    /// E_smooth (eq. 3.5) of the result.
+    pub e_smooth: f64,
+    /// E_align (eq. 3.6, without τ) of the result.
+    pub e_align: f64,
+    /// Rounding + fixed-matching passes.
+    pub passes: usize,
+    /// (stage, seconds).
+    pub timings: Vec<(String, f64)>,
+}
+
+/// Computes a frame field: curvature → classification/reliability → smoothing → density →
+/// frames and matchings → singularities.
+pub fn compute_field(mesh: &TriMesh, params: &FieldParams) -> Result<FieldResult, FieldError> {
+    if mesh.n_faces() == 0 {
+        return Err(FieldError::EmptyMesh);
+    }
+    for (name, v, ok) in [
+        ("tau", params.tau, params.tau >= 0.0),
+        (
+            "reliable_fraction",
+            params.reliable_fraction,
+            (0.0..=1.0).contains(&params.reliable_fraction),
+        ),
+        (
+            "planar_threshold",
+            params.planar_threshold,
+            params.planar_threshold >= 0.0,
+        ),
+    ] {
+        if !ok || !v.is_finite() {
+            return Err(FieldError::InvalidParameter(format!("{name} = {v}")));
+        }
+    }
+    let n = params.symmetry.n();
+    let mut timings = Vec::new();
+    let mut clock = Instant::now();
+    let mut lap = |name: &str, timings: &mut Vec<(String, f64)>| {
+        timings.push((name.to_string(), clock.elapsed().as_secs_f64()));
+        clock = Instant::now();
+    };
+    let bases = FaceBases::new(mesh);
+    let tr = EdgeTransport::new(mesh, &bases);
+    lap("bases + transport", &mut timings);
+    let curvature = Curvature::compute(mesh, &bases);
+    lap("curvature", &mut timings);
+    let (lo, hi) = mesh.bounding_box();
+    let diag = (hi - lo).length().max(f64::MIN_POSITIVE);
+    let (reference, cand, classes) =
+        classify::targets(&curvature, params.symmetry, params.planar_threshold / diag);
+    let omega = match params.guidance {
+        Guidance::Curvature => curvature.reliability(params.reliable_fraction, &cand),
+        Guidance::Smooth => vec![0.0; mesh.n_faces()],
+    };
+    lap("classification + reliability", &mut timings);
+    let sm = smoothing::smooth(&smoothing::SmoothInput {
+        n,
+        transport: &tr,
+        theta0: &reference,
+        omega: &omega,
+        tau: params.tau,
+        relaxation: params.relaxation,
+    })?;
+    timings.extend(sm.timings.iter().cloned());
+    clock = Instant::now();
+    let multipliers = density::face_multipliers(mesh, &params.scale, &curvature)?;
+    let grid_size = density::grid_size(mesh, &params.density, params.symmetry, &multipliers)?;
+    let frames = frames_from_angles(&bases, &sm.theta, |f| multipliers[f] / grid_size);
+    let matchings = reduce_matchings(&tr, &sm.r, n);
+    let field = FrameField {
+        symmetry: params.symmetry,
+        frames,
+        matchings,
+    };
+    let mut clock2 = Instant::now();
+    timings.push(("density + frames".into(), clock.elapsed().as_secs_f64()));
+    let indices = index::indices_from_angles(mesh, &tr, &sm.theta, &field.matchings, n);
+    timings.push(("singularities".into(), clock2.elapsed().as_secs_f64()));
+    clock2 = Instant::now();
+    let _ = clock2;
+    Ok(FieldResult {
+        field,
+        theta: sm.theta,
+        curvature,
+        reference,
+        omega,
+        classes,
+        grid_size,
+        multipliers,
+        indices,
+        e_smooth: sm.e_smooth,
+        e_align: sm.e_align,
+        passes: sm.passes,
+        timings,
+    })
+}
+
+/// Isotropic frames: U = s_f (cos θ e1 + sin θ e2), V = n × U.
+pub fn frames_from_angles(
+    bases: &FaceBases,
+    theta: &[f64],
+    scale: impl Fn(usize) -> f64,
+) -> Vec<[DVec3; 2]> {
+    theta
+        .iter()
+        .enumerate()
+        .map(|(f, &t)| {
+            let u = bases.direction(f, t) * scale(f);
+            [u, bases.normal[f].cross(u)]
+        })
+        .collect()
+}
+
+fn reduce_matchings(tr: &EdgeTransport, r: &[i64], n: u32) -> Vec<i32> {
+    tr.faces
+        .iter()
+        .zip(r)
+        .map(|(f, &r)| {
+            if f[1] == NO_FACE {
+                0
+            } else {
+                r.rem_euclid(n as i64) as i32
+            }
+        })
+        .collect()
+}
+
+/// Closest-angle matching (eq. 3.3, as rounding to the nearest multiple of 2π/N) between given
+/// per-face angles, per edge in 0..N.
+pub fn closest_matchings(tr: &EdgeTransport, theta: &[f64], n: u32) -> Vec<i32> {
+    let step = TAU / n as f64;
+    tr.faces
+        .iter()
+        .zip(&tr.kappa)
+        .map(|(f, k)| {
+            if f[1] == NO_FACE {
+                0
+            } else {
+                let d = theta[f[1] as usize] - theta[f[0] as usize] - k;
+                ((d / step).round() as i64).rem_euclid(n as i64) as i32
+            }
+        })
+        .collect()
+}
+
+/// Algorithm 5: the raw principal curvature field (unit frames along the reference direction of
+/// [`classify::targets`]) with closest-angle matchings (eq. 3.3). Unsmoothed, usually noisy.
+pub fn curvature_field(mesh: &TriMesh, symmetry: Symmetry) -> FrameField {
+    let bases = FaceBases::new(mesh);
+    let tr = EdgeTransport::new(mesh, &bases);
+    let curv = Curvature::compute(mesh, &bases);
+    let (reference, _, _) = classify::targets(&curv, symmetry, 0.0);
+    FrameField {
+        symmetry,
+        frames: frames_from_angles(&bases, &reference, |_| 1.0),
+        matchings: closest_matchings(&tr, &reference, symmetry.n()),
+    }
+}
+
+/// Largest |residual angle| over interior edges of a field: the angle between U_j and the
+/// matched, transported M_r U_i (0 for a perfectly smooth field; ≤ π/N when every matching is
+/// the closest-angle one).
+pub fn max_matching_residual(mesh: &TriMesh, field: &FrameField) -> f64 {
+    let bases = FaceBases::new(mesh);
+    let tr = EdgeTransport::new(mesh, &bases);
+    let theta = index::frame_angles(field, &bases);
+    let step = TAU / field.symmetry.n() as f64;
+    (0..mesh.n_edges())
+        .filter(|&e| tr.is_interior(e))
+        .map(|e| {
+            let [i, j] = tr.faces[e].map(|f| f as usize);
+            wrap_pi(theta[j] - theta[i] - tr.kappa[e] - step * field.matchings[e] as f64).abs()
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Benchmark stages for `quadcover bench`: curvature + N = 4 smoothing with default parameters.
+pub fn bench_field(mesh: &TriMesh) -> Vec<(String, f64)> {
+    let t = Instant::now();
+    let params = FieldParams::default();
+    let mut out = match compute_field(mesh, &params) {
+        Ok(r) => r.timings,
+        Err(e) => vec![(format!("field failed: {e}"), f64::NAN)],
+    };
+    out.push(("field total".into(), t.elapsed().as_secs_f64()));
+    out
+}
