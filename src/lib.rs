@@ -3,6 +3,7 @@
 //! The core (everything but [`app`]) is plain data in and out: [`mesh`] (connectivity, geometry,
 //! topology, validation), [`io`] (file formats), [`sparse`] (the one solver wrapper over faer),
 //! [`field`] (frame fields), [`param`] (QuadCover), and the headless [`cli`].
+pub mod app;
 pub mod io;
 pub mod mesh;
 pub mod sparse;
