@@ -4,6 +4,7 @@
 //! topology, validation), [`io`] (file formats), [`sparse`] (the one solver wrapper over faer),
 //! [`field`] (frame fields), [`param`] (QuadCover), and the headless [`cli`].
 pub mod app;
+pub mod field;
 pub mod io;
 pub mod mesh;
 pub mod sparse;
