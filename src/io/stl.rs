@@ -3,8 +3,8 @@
 //! Choices:
 //! - Binary is recognised by its size, `84 + 50 n` bytes with `n` the count at byte 80, not by the
 //!   `solid` prefix (many binary files start with "solid"). A file that starts with `solid` and
-//!   whose first kilobyte is plain text is read as ASCII; anything else is binary (and reported as
-//!   truncated if too short for its count).
+//!   whose first kilobyte has no control bytes (UTF-8 names are fine) is read as ASCII; anything
+//!   else is binary (and reported as truncated if too short for its count).
 //! - STL stores three corners per triangle; corners are welded by exact coordinate equality (the
 //!   `f32` bits for binary, the parsed `f64` bits for ASCII, with -0 equal to +0). Vertices are
 //!   numbered in first-occurrence order and a warning "welded N coincident vertices" is added.
@@ -35,7 +35,7 @@ fn looks_ascii(bytes: &[u8]) -> bool {
     trimmed.starts_with(b"solid")
         && trimmed[..trimmed.len().min(1024)]
             .iter()
-            .all(|&b| b.is_ascii_graphic() || b.is_ascii_whitespace())
+            .all(|&b| (b >= 0x20 && b != 0x7f) || b.is_ascii_whitespace())
 }
 
 /// Welds corners by a bitwise key and feeds the builder.
