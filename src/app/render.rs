@@ -443,7 +443,7 @@ impl Renderer {
             light_dir: camera.light_dir().extend(0.18).to_array(),
             base_color: [b[0], b[1], b[2], 1.0],
             wire_color: [0.02, 0.02, 0.03, 0.85],
-            pattern_color: [0.03, 0.03, 0.05, 0.45],
+            pattern_color: [0.03, 0.03, 0.05, 0.75],
             params: [
                 settings.pattern_scale,
                 settings.line_width,

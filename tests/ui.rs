@@ -1,0 +1,197 @@
+//! Editor UI tests with egui_kittest (headless, wgpu on lavapipe when present).
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use quadcover::app::settings::{DisplayMode, Pattern, Shading};
+use quadcover::app::{EditorApp, EditorOptions};
+
+fn shared_mesh(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/meshes")
+        .join(name)
+}
+
+fn out_dir() -> PathBuf {
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target"));
+    let dir = target.join("render-tests");
+    std::fs::create_dir_all(&dir).expect("create target/render-tests");
+    dir
+}
+
+fn harness(recent: &Path, open: Option<PathBuf>) -> Harness<'static, EditorApp> {
+    let opts = EditorOptions {
+        open,
+        recent_store: Some(recent.to_path_buf()),
+    };
+    Harness::builder()
+        .with_size(egui::vec2(1100.0, 720.0))
+        .wgpu()
+        .build_eframe(move |cc| EditorApp::new(cc, opts))
+}
+
+/// Steps the UI until no background job runs (or a timeout).
+fn settle(h: &mut Harness<'static, EditorApp>) {
+    let start = Instant::now();
+    while h.state().busy() {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "jobs did not finish"
+        );
+        h.step();
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    h.run_steps(3);
+}
+
+fn save_render(h: &mut Harness<'static, EditorApp>, name: &str) {
+    match h.render() {
+        Ok(img) => {
+            let path = out_dir().join(name);
+            img.save(&path).expect("write png");
+            eprintln!("wrote {}", path.display());
+        }
+        Err(e) => eprintln!("no render of the UI ({e})"),
+    }
+}
+
+#[test]
+fn starts_with_default_mesh_and_loads_a_shared_mesh() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let recent = dir.path().join("recent.txt");
+    let mut h = harness(&recent, None);
+    settle(&mut h);
+    h.get_by_label_contains("File: spot.obj");
+    h.get_by_label("Faces: 5856");
+    h.get_by_label("Genus: 0");
+    save_render(&mut h, "ui_default.png");
+
+    let kitten = shared_mesh("kitten.obj");
+    let ctx = h.ctx.clone();
+    h.state_mut().open_path(&kitten, Some(ctx));
+    settle(&mut h);
+    h.get_by_label("File: kitten.obj");
+    h.get_by_label("Vertices: 1850");
+    h.get_by_label("Faces: 3700");
+    h.get_by_label("Genus: 1");
+    h.get_by_label("Components: 1");
+    h.get_by_label("Boundary loops: 0");
+    assert!(h.state().error.is_none());
+    // the recent-files list remembers it
+    let text = std::fs::read_to_string(&recent).expect("recent list written");
+    assert!(text.contains("kitten.obj"), "{text}");
+}
+
+#[test]
+fn switches_display_mode_pattern_and_shading() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness(
+        &dir.path().join("recent.txt"),
+        Some(shared_mesh("kitten.obj")),
+    );
+    settle(&mut h);
+
+    // demo parameterization (background job) switches to the pattern mode
+    h.get_by_label("Parameterization").click();
+    h.step();
+    settle(&mut h);
+    assert!(h.state().document.has_param());
+    assert_eq!(h.state().document.display.mode, DisplayMode::Pattern);
+
+    h.get_by_label("Shaded").click();
+    h.run_steps(2);
+    assert_eq!(h.state().document.display.mode, DisplayMode::Shaded);
+    h.get_by_label("Texture pattern").click();
+    h.run_steps(2);
+    assert_eq!(h.state().document.display.mode, DisplayMode::Pattern);
+
+    // pattern combo box
+    h.get_by_label("Pattern").click();
+    h.run_steps(2);
+    h.get_by_label("Hexagons (G6)").click();
+    h.run_steps(2);
+    assert_eq!(h.state().document.display.pattern, Pattern::Hexagons);
+
+    h.get_by_label("Flat").click();
+    h.get_by_label("Wireframe").click();
+    h.run_steps(2);
+    assert_eq!(h.state().document.display.shading, Shading::Flat);
+    assert!(h.state().document.display.wireframe);
+    save_render(&mut h, "ui_kitten_hexagons.png");
+
+    // demo field switches to the LIC
+    h.get_by_label("Field").click();
+    h.step();
+    settle(&mut h);
+    assert!(h.state().document.field.is_some());
+    assert_eq!(h.state().document.display.mode, DisplayMode::Field);
+    save_render(&mut h, "ui_kitten_field.png");
+}
+
+#[test]
+fn bad_file_shows_error_and_editor_keeps_running() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness(
+        &dir.path().join("recent.txt"),
+        Some(shared_mesh("kitten.obj")),
+    );
+    settle(&mut h);
+
+    let bad = dir.path().join("broken.obj");
+    std::fs::write(&bad, "v 0 0 0\nv 1 0 0\nf 1 2 9\nthis is not obj\n").expect("write");
+    let ctx = h.ctx.clone();
+    h.state_mut().open_path(&bad, Some(ctx.clone()));
+    settle(&mut h);
+    let err = h.state().error.clone().expect("an error is shown");
+    assert!(err.contains("broken.obj"), "{err}");
+    h.get_by_label_contains("Could not complete");
+    save_render(&mut h, "ui_error.png");
+    // the previous document is intact
+    h.get_by_label("File: kitten.obj");
+
+    // a missing file too
+    h.state_mut()
+        .open_path(&dir.path().join("missing.obj"), Some(ctx));
+    settle(&mut h);
+    assert!(
+        h.state()
+            .error
+            .as_deref()
+            .unwrap_or("")
+            .contains("missing.obj")
+    );
+
+    // dismiss and keep working
+    h.get_by_label("OK").click();
+    h.run_steps(2);
+    assert!(h.state().error.is_none());
+    h.get_by_label("Flat").click();
+    h.run_steps(2);
+    assert_eq!(h.state().document.display.shading, Shading::Flat);
+
+    // files dropped on the window are opened
+    h.input_mut()
+        .dropped_files
+        .push(Arc::new(Dropped(shared_mesh("spot.obj"))));
+    h.step();
+    settle(&mut h);
+    h.get_by_label("File: spot.obj");
+}
+
+#[derive(Debug)]
+struct Dropped(PathBuf);
+
+impl egui::DroppedFile for Dropped {
+    fn path(&self) -> &Path {
+        &self.0
+    }
+
+    fn bytes(&self) -> Result<Vec<u8>, String> {
+        std::fs::read(&self.0).map_err(|e| e.to_string())
+    }
+}
