@@ -1,0 +1,373 @@
+//! Global step (alg. 4, eq. 2.43–2.44): per-corner expressions ψ_f(v) = R^α x_v + Σ_k M_k W_k
+//! in terms of one 2-D unknown per regular vertex and the loop gaps W_k (branch points are fixed
+//! by eq. 2.40), the conforming 2×2-block Laplacian over the x_v, and rounding of the W_k to the
+//! lattice (direct, as in the thesis, or greedy one loop at a time, MIQ-style).
+
+use glam::DVec3;
+
+use crate::mesh::TriMesh;
+
+use super::ParamError;
+use super::cut::{CutGraph, NONE, step};
+use super::rot::{Aff, ID, Lattice, Lin, M2, Rots, apply, inverse, mul, sub, transpose};
+use super::system::{BlockBuilder, BlockSolver};
+
+pub(crate) struct GlobalSystem {
+    pub corner_var: Vec<u32>,
+    pub corner_rot: Vec<u8>,
+    pub corner_lin: Vec<Lin>,
+    pub n_loops: usize,
+    solver: BlockSolver,
+}
+
+/// Cotan stiffness K_ab = A⟨∇λ_a, ∇λ_b⟩ of face f.
+fn stiffness(mesh: &TriMesh, f: usize) -> [[f64; 3]; 3] {
+    let d: [DVec3; 3] = std::array::from_fn(|k| mesh.vector(3 * f + k));
+    let a4 = 4.0 * mesh.face_area(f);
+    std::array::from_fn(|a| std::array::from_fn(|b| d[(a + 1) % 3].dot(d[(b + 1) % 3]) / a4))
+}
+
+impl GlobalSystem {
+    pub fn new(mesh: &TriMesh, cut: &CutGraph, rots: &Rots) -> Result<GlobalSystem, ParamError> {
+        let nc = 3 * mesh.n_faces();
+        let mut corner_var = vec![NONE; nc];
+        let mut corner_rot = vec![0u8; nc];
+        let mut corner_lin = vec![Lin::default(); nc];
+        let mut pinned = vec![false; cut.translation_kernel.len()];
+        let mut n = 0usize;
+        for v in 0..mesh.n_vertices() {
+            let h0 = mesh.vertex_halfedge(v);
+            let mut fan: Vec<(usize, Aff)> = vec![(h0, Aff::default())];
+            let mut h = h0;
+            let mut closing = None;
+            loop {
+                let c = mesh.edge(mesh.prev(h));
+                let t = step(mesh, &cut.transitions[c], c, mesh.face_of(h), rots);
+                let acc = t.after(&fan.last().unwrap().1, rots);
+                match mesh.twin(mesh.prev(h)) {
+                    None => break,
+                    Some(hn) if hn == h0 => {
+                        closing = Some(acc);
+                        break;
+                    }
+                    Some(hn) => {
+                        fan.push((hn, acc));
+                        h = hn;
+                    }
+                }
+            }
+            let comp = cut.comp_of_face[mesh.face_of(h0)] as usize;
+            if cut.singular[v] {
+                // x = R^h x + m  ⇒  x = (I − R^h)^{-1} m   (eq. 2.40)
+                let close = closing.expect("branch points are interior");
+                let inv = inverse(&sub(&ID, rots.get(close.rot as i64)));
+                let xlin = close.lin.left(&inv);
+                for (h, a) in fan {
+                    corner_lin[h] = xlin.left(rots.get(a.rot as i64)).add(&a.lin);
+                }
+                continue;
+            }
+            let var = if cut.translation_kernel[comp] && !pinned[comp] {
+                pinned[comp] = true;
+                NONE
+            } else {
+                n += 1;
+                (n - 1) as u32
+            };
+            for (h, a) in fan {
+                corner_var[h] = var;
+                corner_rot[h] = a.rot;
+                corner_lin[h] = a.lin;
+            }
+        }
+        let mut b = BlockBuilder::new(rots.n == 2, n, 9 * mesh.n_faces());
+        for f in 0..mesh.n_faces() {
+            let k = stiffness(mesh, f);
+            for a in 0..3 {
+                let va = corner_var[3 * f + a];
+                if va == NONE {
+                    continue;
+                }
+                for bb in 0..3 {
+                    let vb = corner_var[3 * f + bb];
+                    if vb == NONE {
+                        continue;
+                    }
+                    let r = rots.get(corner_rot[3 * f + bb] as i64 - corner_rot[3 * f + a] as i64);
+                    b.add(va as usize, vb as usize, k[a][bb], r);
+                }
+            }
+        }
+        Ok(GlobalSystem {
+            corner_var,
+            corner_rot,
+            corner_lin,
+            n_loops: cut.generators.len(),
+            solver: b.factor()?,
+        })
+    }
+
+    /// Per-corner targets b_a = A⟨∇λ_a, X̃⟩ (rows) of the disk-frame field.
+    fn targets(mesh: &TriMesh, disk: &[[DVec3; 2]]) -> Vec<[f64; 2]> {
+        let mut out = vec![[0.0; 2]; 3 * mesh.n_faces()];
+        for (f, x) in disk.iter().enumerate() {
+            let n = mesh.face_normal(f);
+            for a in 0..3 {
+                let g = n.cross(mesh.vector(3 * f + (a + 1) % 3)) * 0.5;
+                out[3 * f + a] = [g.dot(x[0]), g.dot(x[1])];
+            }
+        }
+        out
+    }
+
+    /// Solves for the vertex unknowns with the gaps W fixed; returns ψ per corner (disk frame).
+    pub fn solve(
+        &self,
+        mesh: &TriMesh,
+        rots: &Rots,
+        disk: &[[DVec3; 2]],
+        w: &[[f64; 2]],
+    ) -> Result<Vec<[f64; 2]>, ParamError> {
+        let b = Self::targets(mesh, disk);
+        let consts: Vec<[f64; 2]> = self.corner_lin.iter().map(|l| l.eval(w)).collect();
+        let mut rhs = vec![[0.0; 2]; self.solver.n()];
+        for f in 0..mesh.n_faces() {
+            let k = stiffness(mesh, f);
+            for a in 0..3 {
+                let va = self.corner_var[3 * f + a];
+                if va == NONE {
+                    continue;
+                }
+                let mut r = b[3 * f + a];
+                for bb in 0..3 {
+                    let c = consts[3 * f + bb];
+                    r[0] -= k[a][bb] * c[0];
+                    r[1] -= k[a][bb] * c[1];
+                }
+                let r = apply(rots.get(-(self.corner_rot[3 * f + a] as i64)), r);
+                rhs[va as usize][0] += r[0];
+                rhs[va as usize][1] += r[1];
+            }
+        }
+        let x = self.solver.solve(&rhs)?;
+        Ok((0..consts.len())
+            .map(|c| {
+                let mut p = consts[c];
+                let v = self.corner_var[c];
+                if v != NONE {
+                    let q = apply(rots.get(self.corner_rot[c] as i64), x[v as usize]);
+                    p[0] += q[0];
+                    p[1] += q[1];
+                }
+                p
+            })
+            .collect())
+    }
+
+    /// Greedy rounding: the energy reduced to the gaps (Schur complement H of the vertex block,
+    /// computed with the reused factorization), then one loop at a time the gap closest to the
+    /// lattice is fixed and the others re-optimised (Gaussian conditioning, O(K²) per step).
+    pub fn greedy_round(
+        &self,
+        mesh: &TriMesh,
+        rots: &Rots,
+        measured: &[[f64; 2]],
+        lattice: Lattice,
+    ) -> Result<Vec<[f64; 2]>, ParamError> {
+        let nl = self.n_loops;
+        let m = 2 * nl;
+        if nl == 0 {
+            return Ok(Vec::new());
+        }
+        // Sparse columns of Q_xW and dense Q_WW.
+        let mut cols: Vec<Vec<(u32, [f64; 2])>> = vec![Vec::new(); m];
+        let mut qww = vec![0.0; m * m];
+        for f in 0..mesh.n_faces() {
+            let k = stiffness(mesh, f);
+            for a in 0..3 {
+                let ca = 3 * f + a;
+                for bb in 0..3 {
+                    let cb = 3 * f + bb;
+                    let kab = k[a][bb];
+                    let va = self.corner_var[ca];
+                    if va != NONE {
+                        let ra = transpose(rots.get(self.corner_rot[ca] as i64));
+                        for (l, ml) in &self.corner_lin[cb].0 {
+                            let q = mul(&ra, ml);
+                            for c in 0..2 {
+                                cols[2 * *l as usize + c].push((va, [kab * q[c], kab * q[2 + c]]));
+                            }
+                        }
+                    }
+                    for (kk, mk) in &self.corner_lin[ca].0 {
+                        let mkt = transpose(mk);
+                        for (l, ml) in &self.corner_lin[cb].0 {
+                            let q = mul(&mkt, ml);
+                            for r in 0..2 {
+                                for c in 0..2 {
+                                    qww[(2 * *kk as usize + r) * m + 2 * *l as usize + c] +=
+                                        kab * q[2 * r + c];
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        for col in &mut cols {
+            col.sort_by_key(|x| x.0);
+            col.dedup_by(|next, prev| {
+                if next.0 == prev.0 {
+                    prev.1[0] += next.1[0];
+                    prev.1[1] += next.1[1];
+                    true
+                } else {
+                    false
+                }
+            });
+        }
+        let nx = self.solver.n();
+        let mut h = qww;
+        for start in (0..m).step_by(32) {
+            let end = (start + 32).min(m);
+            let dense: Vec<Vec<[f64; 2]>> = (start..end)
+                .map(|j| {
+                    let mut d = vec![[0.0; 2]; nx];
+                    for &(v, x) in &cols[j] {
+                        d[v as usize] = x;
+                    }
+                    d
+                })
+                .collect();
+            let refs: Vec<&[[f64; 2]]> = dense.iter().map(|d| d.as_slice()).collect();
+            let y = self.solver.solve_many(&refs)?;
+            for (jj, yj) in y.iter().enumerate() {
+                let j = start + jj;
+                for (i, col) in cols.iter().enumerate() {
+                    let s: f64 = col
+                        .iter()
+                        .map(|&(v, x)| x[0] * yj[v as usize][0] + x[1] * yj[v as usize][1])
+                        .sum();
+                    h[i * m + j] -= s;
+                }
+            }
+        }
+        let Some(mut cov) = dense_spd_inverse(&h, m) else {
+            // Not positive definite numerically: fall back to direct rounding.
+            return Ok(measured.iter().map(|&p| lattice.nearest(p)).collect());
+        };
+        let mut w: Vec<f64> = measured.iter().flat_map(|p| [p[0], p[1]]).collect();
+        let mut free: Vec<usize> = (0..nl).collect();
+        while !free.is_empty() {
+            let (pos, &k) = free
+                .iter()
+                .enumerate()
+                .min_by(|a, b| {
+                    let da = lattice.distance([w[2 * a.1], w[2 * a.1 + 1]]);
+                    let db = lattice.distance([w[2 * b.1], w[2 * b.1 + 1]]);
+                    da.total_cmp(&db)
+                })
+                .unwrap();
+            free.swap_remove(pos);
+            let target = lattice.nearest([w[2 * k], w[2 * k + 1]]);
+            let delta = [target[0] - w[2 * k], target[1] - w[2 * k + 1]];
+            let ckk: M2 = [
+                cov[2 * k * m + 2 * k],
+                cov[2 * k * m + 2 * k + 1],
+                cov[(2 * k + 1) * m + 2 * k],
+                cov[(2 * k + 1) * m + 2 * k + 1],
+            ];
+            let ci = inverse(&ckk);
+            let g = apply(&ci, delta);
+            w[2 * k] = target[0];
+            w[2 * k + 1] = target[1];
+            // Conditioning of the remaining free gaps and their covariance.
+            let idx: Vec<usize> = free.iter().flat_map(|&l| [2 * l, 2 * l + 1]).collect();
+            for &i in &idx {
+                w[i] += cov[i * m + 2 * k] * g[0] + cov[i * m + 2 * k + 1] * g[1];
+            }
+            let proj: Vec<[f64; 2]> = idx
+                .iter()
+                .map(|&i| {
+                    let c = [cov[i * m + 2 * k], cov[i * m + 2 * k + 1]];
+                    [c[0] * ci[0] + c[1] * ci[2], c[0] * ci[1] + c[1] * ci[3]]
+                })
+                .collect();
+            for (a, &i) in idx.iter().enumerate() {
+                for &j in &idx {
+                    cov[i * m + j] -=
+                        proj[a][0] * cov[2 * k * m + j] + proj[a][1] * cov[(2 * k + 1) * m + j];
+                }
+            }
+        }
+        Ok((0..nl).map(|k| [w[2 * k], w[2 * k + 1]]).collect())
+    }
+}
+
+/// Inverse of a dense symmetric positive definite matrix (Cholesky); None if not SPD.
+fn dense_spd_inverse(a: &[f64], m: usize) -> Option<Vec<f64>> {
+    let mut l = vec![0.0; m * m];
+    for j in 0..m {
+        let mut d = a[j * m + j];
+        for k in 0..j {
+            d -= l[j * m + k] * l[j * m + k];
+        }
+        if d <= 0.0 || !d.is_finite() {
+            return None;
+        }
+        let d = d.sqrt();
+        l[j * m + j] = d;
+        for i in j + 1..m {
+            let mut s = 0.5 * (a[i * m + j] + a[j * m + i]);
+            for k in 0..j {
+                s -= l[i * m + k] * l[j * m + k];
+            }
+            l[i * m + j] = s / d;
+        }
+    }
+    // Solve L Lᵀ X = I column by column.
+    let mut inv = vec![0.0; m * m];
+    let mut y = vec![0.0; m];
+    for c in 0..m {
+        for i in 0..m {
+            let mut s = if i == c { 1.0 } else { 0.0 };
+            for k in 0..i {
+                s -= l[i * m + k] * y[k];
+            }
+            y[i] = s / l[i * m + i];
+        }
+        for i in (0..m).rev() {
+            let mut s = y[i];
+            for k in i + 1..m {
+                s -= l[k * m + i] * inv[k * m + c];
+            }
+            inv[i * m + c] = s / l[i * m + i];
+        }
+    }
+    Some(inv)
+}
+
+/// Measures the loop gaps W_k = ψ_j − R^t ψ_i at the generator edges (mean of both endpoints).
+pub(crate) fn measure_gaps(
+    mesh: &TriMesh,
+    cut: &CutGraph,
+    rots: &Rots,
+    psi: &[[f64; 2]],
+) -> Vec<[f64; 2]> {
+    cut.generators
+        .iter()
+        .map(|&e| {
+            let (h0, h1) = mesh.edge_halfedges(e as usize);
+            let h1 = h1.unwrap();
+            let r = rots.get(cut.transitions[e as usize].rot as i64);
+            // a = from(h0): corner h0 in i, corner next(h1) in j; b = to(h0): next(h0) / h1.
+            let ga = apply(r, psi[h0]);
+            let gb = apply(r, psi[mesh.next(h0)]);
+            let (ja, jb) = (psi[mesh.next(h1)], psi[h1]);
+            [
+                0.5 * (ja[0] - ga[0] + jb[0] - gb[0]),
+                0.5 * (ja[1] - ga[1] + jb[1] - gb[1]),
+            ]
+        })
+        .collect()
+}

@@ -1,0 +1,192 @@
+//! Local step (alg. 3, eq. 2.42): remove the co-gradient part of the frame field on the covering
+//! with the 2×2-block non-conforming (Crouzeix–Raviart, edge-midpoint) Laplacian, then integrate
+//! the curl*-free field over the dual spanning forest of M \ G, respecting the matchings.
+
+use glam::DVec3;
+
+use crate::mesh::TriMesh;
+
+use super::ParamError;
+use super::cut::{CutGraph, NONE};
+use super::rot::{Rots, apply, transpose};
+use super::system::{BlockBuilder, BlockSolver};
+
+/// The factored non-conforming system; depends on geometry and matchings only.
+pub(crate) struct LocalSystem {
+    edge_var: Vec<u32>,
+    solver: BlockSolver,
+}
+
+/// Rotation exponent of edge e's unknown as seen from face f (0 on the h0 side, r_e on the other).
+fn side_rot(mesh: &TriMesh, cut: &CutGraph, h: usize) -> i64 {
+    let e = mesh.edge(h);
+    if mesh.edge_halfedges(e).0 == h {
+        0
+    } else {
+        cut.matching[e] as i64
+    }
+}
+
+impl LocalSystem {
+    pub fn new(mesh: &TriMesh, cut: &CutGraph, rots: &Rots) -> Result<LocalSystem, ParamError> {
+        let ne = mesh.n_edges();
+        let mut edge_var = vec![NONE; ne];
+        let mut pinned = vec![false; cut.translation_kernel.len()];
+        let mut n = 0usize;
+        for e in 0..ne {
+            if mesh.is_boundary_edge(e) {
+                continue;
+            }
+            let c = cut.comp_of_face[mesh.face_of(mesh.edge_halfedges(e).0)] as usize;
+            // Constants on the covering are in the kernel only on closed components whose
+            // matchings are a coboundary; pin one edge there.
+            if cut.closed_comp[c] && cut.translation_kernel[c] && !pinned[c] {
+                pinned[c] = true;
+                continue;
+            }
+            edge_var[e] = n as u32;
+            n += 1;
+        }
+        let mut b = BlockBuilder::new(rots.n == 2, n, 9 * mesh.n_faces());
+        for f in 0..mesh.n_faces() {
+            let area = mesh.face_area(f);
+            let d: [DVec3; 3] = std::array::from_fn(|k| mesh.vector(3 * f + k));
+            for a in 0..3 {
+                let va = edge_var[mesh.edge(3 * f + a)];
+                if va == NONE {
+                    continue;
+                }
+                let sa = side_rot(mesh, cut, 3 * f + a);
+                for bb in 0..3 {
+                    let vb = edge_var[mesh.edge(3 * f + bb)];
+                    if vb == NONE {
+                        continue;
+                    }
+                    let sb = side_rot(mesh, cut, 3 * f + bb);
+                    b.add(
+                        va as usize,
+                        vb as usize,
+                        d[a].dot(d[bb]) / area,
+                        rots.get(sb - sa),
+                    );
+                }
+            }
+        }
+        Ok(LocalSystem {
+            edge_var,
+            solver: b.factor()?,
+        })
+    }
+
+    /// Curl*-free frames (per face rows U, V) closest to `frames` (co-gradient removed).
+    pub fn solve(
+        &self,
+        mesh: &TriMesh,
+        cut: &CutGraph,
+        rots: &Rots,
+        frames: &[[DVec3; 2]],
+    ) -> Result<Vec<[DVec3; 2]>, ParamError> {
+        let n = self.solver.n();
+        let mut rhs = vec![[0.0; 2]; n];
+        for (f, x) in frames.iter().enumerate() {
+            for k in 0..3 {
+                let h = 3 * f + k;
+                let v = self.edge_var[mesh.edge(h)];
+                if v == NONE {
+                    continue;
+                }
+                let d = mesh.vector(h);
+                let c = apply(
+                    &transpose(rots.get(side_rot(mesh, cut, h))),
+                    [d.dot(x[0]), d.dot(x[1])],
+                );
+                rhs[v as usize][0] += c[0];
+                rhs[v as usize][1] += c[1];
+            }
+        }
+        let g = self.solver.solve(&rhs)?;
+        Ok(frames
+            .iter()
+            .enumerate()
+            .map(|(f, x)| {
+                let area = mesh.face_area(f);
+                let mut out = *x;
+                for k in 0..3 {
+                    let h = 3 * f + k;
+                    let v = self.edge_var[mesh.edge(h)];
+                    if v == NONE {
+                        continue;
+                    }
+                    let gl = apply(rots.get(side_rot(mesh, cut, h)), g[v as usize]);
+                    let d = mesh.vector(h) / area;
+                    out[0] -= d * gl[0];
+                    out[1] -= d * gl[1];
+                }
+                out
+            })
+            .collect())
+    }
+}
+
+/// Frames expressed in the disk frame of each face: R^{-ρ_f} applied to the stacked rows.
+pub(crate) fn to_disk_frame(rots: &Rots, cut: &CutGraph, frames: &[[DVec3; 2]]) -> Vec<[DVec3; 2]> {
+    frames
+        .iter()
+        .zip(&cut.rho)
+        .map(|(x, &r)| {
+            let m = rots.get(-(r as i64));
+            [x[0] * m[0] + x[1] * m[1], x[0] * m[2] + x[1] * m[3]]
+        })
+        .collect()
+}
+
+/// Integrates disk-frame frames over the dual spanning forest: per-corner values ψ[3f+k].
+pub(crate) fn integrate(mesh: &TriMesh, cut: &CutGraph, disk: &[[DVec3; 2]]) -> Vec<[f64; 2]> {
+    let pos = mesh.positions();
+    let mut psi = vec![[0.0; 2]; 3 * mesh.n_faces()];
+    let dot = |x: &[DVec3; 2], d: DVec3| [x[0].dot(d), x[1].dot(d)];
+    for &(f, e) in &cut.face_order {
+        let f = f as usize;
+        let fv = mesh.face(f);
+        let x = &disk[f];
+        if e == NONE {
+            for k in 1..3 {
+                psi[3 * f + k] = dot(x, pos[fv[k]] - pos[fv[0]]);
+            }
+            continue;
+        }
+        let h = (0..3)
+            .map(|k| 3 * f + k)
+            .find(|&h| mesh.edge(h) == e as usize)
+            .unwrap();
+        let t = mesh.twin(h).unwrap();
+        let k = h % 3;
+        // Parent corners: from(h) = to(t) at next(t), to(h) = from(t) at t.
+        psi[3 * f + k] = psi[mesh.next(t)];
+        psi[3 * f + (k + 1) % 3] = psi[t];
+        let base = psi[3 * f + k];
+        let d = dot(x, pos[fv[(k + 2) % 3]] - pos[fv[k]]);
+        psi[3 * f + (k + 2) % 3] = [base[0] + d[0], base[1] + d[1]];
+    }
+    psi
+}
+
+/// Per interior edge the curl* residual on the covering: ‖⟨e, X_j⟩ − R^{r_ij} ⟨e, X_i⟩‖.
+pub fn curl_star(
+    mesh: &TriMesh,
+    symmetry: usize,
+    frames: &[[DVec3; 2]],
+    matchings: &[i32],
+) -> Vec<f64> {
+    let rots = Rots::new(symmetry);
+    (0..mesh.n_edges())
+        .map(|e| {
+            let (h0, h1) = mesh.edge_halfedges(e);
+            let Some(h1) = h1 else { return 0.0 };
+            let d = mesh.vector(h0);
+            let (xi, xj) = (&frames[mesh.face_of(h0)], &frames[mesh.face_of(h1)]);
+            let a = apply(rots.get(matchings[e] as i64), [d.dot(xi[0]), d.dot(xi[1])]);
+            (d.dot(xj[0]) - a[0]).hypot(d.dot(xj[1]) - a[1])
+        })
+        .collect()
+}

@@ -1,0 +1,170 @@
+//! Quality measures of a parameterization: flips, distortion, seams, singularity indices.
+
+use std::f64::consts::TAU;
+
+use glam::DVec3;
+
+use crate::mesh::TriMesh;
+
+use super::cut::CutGraph;
+use super::rot::{Lattice, Rots, apply};
+
+/// Per face: (signed Jacobian determinant, σ_max, σ_min) of the map surface → texture.
+pub(crate) fn jacobians(mesh: &TriMesh, uv: &[[f64; 2]]) -> Vec<(f64, f64, f64)> {
+    (0..mesh.n_faces())
+        .map(|f| {
+            let (e1, e2) = mesh.face_basis(f);
+            let [a, b, c] = mesh.face(f).map(|v| mesh.position(v));
+            let (p1, p2) = (b - a, c - a);
+            let (x1, y1, x2, y2) = (p1.dot(e1), p1.dot(e2), p2.dot(e1), p2.dot(e2));
+            let det_p = x1 * y2 - x2 * y1;
+            let q1 = [
+                uv[3 * f + 1][0] - uv[3 * f][0],
+                uv[3 * f + 1][1] - uv[3 * f][1],
+            ];
+            let q2 = [
+                uv[3 * f + 2][0] - uv[3 * f][0],
+                uv[3 * f + 2][1] - uv[3 * f][1],
+            ];
+            // J = Q P^{-1}, P^{-1} = [[y2, -x2], [-y1, x1]] / det_p
+            let j = [
+                (q1[0] * y2 - q2[0] * y1) / det_p,
+                (-q1[0] * x2 + q2[0] * x1) / det_p,
+                (q1[1] * y2 - q2[1] * y1) / det_p,
+                (-q1[1] * x2 + q2[1] * x1) / det_p,
+            ];
+            let det = j[0] * j[3] - j[1] * j[2];
+            let (e, ff, g, h) = (
+                (j[0] + j[3]) / 2.0,
+                (j[0] - j[3]) / 2.0,
+                (j[2] + j[1]) / 2.0,
+                (j[2] - j[1]) / 2.0,
+            );
+            let (q, r) = (e.hypot(h), ff.hypot(g));
+            (det, q + r, (q - r).abs())
+        })
+        .collect()
+}
+
+pub(crate) struct Quality {
+    pub flipped: usize,
+    pub conformal_mean: f64,
+    pub conformal_p99: f64,
+    pub area_distortion: f64,
+}
+
+/// Over the valid faces (det J > 0, σ_min > 0; flipped and degenerate faces are counted in
+/// `flipped`): conformal distortion σ_max/σ_min (area-weighted mean, 99th percentile over faces);
+/// area distortion = area-weighted mean of max(r, 1/r), r = det J / (area-weighted mean |det J|).
+pub(crate) fn quality(mesh: &TriMesh, uv: &[[f64; 2]]) -> Quality {
+    let j = jacobians(mesh, uv);
+    let areas: Vec<f64> = (0..mesh.n_faces()).map(|f| mesh.face_area(f)).collect();
+    let total: f64 = areas.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+    let flipped = j.iter().filter(|x| !(x.0 > 0.0)).count();
+    // Distortion over the valid (non-flipped, non-degenerate) faces; flips are counted apart.
+    let valid: Vec<bool> = j.iter().map(|x| x.0 > 0.0 && x.2 > 0.0).collect();
+    let vtotal: f64 = areas
+        .iter()
+        .zip(&valid)
+        .filter(|x| *x.1)
+        .map(|x| x.0)
+        .sum::<f64>()
+        .max(f64::MIN_POSITIVE);
+    let conf: Vec<f64> = j
+        .iter()
+        .zip(&valid)
+        .filter(|x| *x.1)
+        .map(|(&(_, s1, s2), _)| s1 / s2)
+        .collect();
+    let conformal_mean = j
+        .iter()
+        .zip(&areas)
+        .zip(&valid)
+        .filter(|x| *x.1)
+        .map(|((x, a), _)| x.1 / x.2 * a)
+        .sum::<f64>()
+        / vtotal;
+    let mut sorted = conf.clone();
+    sorted.sort_by(f64::total_cmp);
+    let conformal_p99 = sorted
+        .get(((sorted.len() as f64 * 0.99) as usize).min(sorted.len().saturating_sub(1)))
+        .copied()
+        .unwrap_or(1.0);
+    let mean_det = j
+        .iter()
+        .zip(&areas)
+        .map(|(x, a)| x.0.abs() * a)
+        .sum::<f64>()
+        / total;
+    let area_distortion = j
+        .iter()
+        .zip(&areas)
+        .zip(&valid)
+        .filter(|x| *x.1)
+        .map(|((x, a), _)| {
+            let r = x.0 / mean_det;
+            r.max(1.0 / r) * a
+        })
+        .sum::<f64>()
+        / vtotal;
+    Quality {
+        flipped,
+        conformal_mean,
+        conformal_p99,
+        area_distortion,
+    }
+}
+
+/// Max over interior edges and both endpoints of ‖uv_j − (R^t uv_i + τ)‖ plus the distance of τ
+/// to the lattice.
+pub(crate) fn seam_error(
+    mesh: &TriMesh,
+    rots: &Rots,
+    uv: &[[f64; 2]],
+    trans: &[(u8, [f64; 2])],
+    lattice: Lattice,
+) -> f64 {
+    let mut worst: f64 = 0.0;
+    for e in 0..mesh.n_edges() {
+        let (h0, Some(h1)) = mesh.edge_halfedges(e) else {
+            continue;
+        };
+        let (t, tau) = trans[e];
+        let r = rots.get(t as i64);
+        for (ci, cj) in [(h0, mesh.next(h1)), (mesh.next(h0), h1)] {
+            let p = apply(r, uv[ci]);
+            worst = worst.max((uv[cj][0] - p[0] - tau[0]).hypot(uv[cj][1] - p[1] - tau[1]));
+        }
+        worst = worst.max(lattice.distance(tau));
+    }
+    worst
+}
+
+/// Index of a branch point: (Σ δ_e + K(v)) / 2π, with δ_e the angle from the matched, transported
+/// U of one face to the U of the next around the fan, rounded to a multiple of 1/N.
+pub(crate) fn vertex_index(
+    mesh: &TriMesh,
+    cut: &CutGraph,
+    n: usize,
+    frames: &[[DVec3; 2]],
+    v: usize,
+) -> f64 {
+    let mut sum = 0.0;
+    for h in mesh.outgoing(v) {
+        let hp = mesh.prev(h);
+        let Some(t) = mesh.twin(hp) else { return 0.0 };
+        let (fa, fb) = (mesh.face_of(h), mesh.face_of(t));
+        let d = mesh.vector(hp).normalize_or_zero();
+        let ang = |f: usize| {
+            let u = frames[f][0];
+            let nrm = mesh.face_normal(f);
+            u.dot(nrm.cross(d)).atan2(u.dot(d))
+        };
+        let r = super::cut::crossing(mesh, &cut.matching, n, mesh.edge(hp), fa) as f64;
+        let mut delta = ang(fb) - (ang(fa) + TAU * r / n as f64);
+        delta -= TAU * (delta / TAU).round();
+        sum += delta;
+    }
+    let idx = (sum + mesh.angle_defect(v)) / TAU;
+    (idx * n as f64).round() / n as f64
+}

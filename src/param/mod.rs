@@ -1,0 +1,436 @@
+//! QuadCover (thesis ch. 2, sec. 4.1.2, 4.2): seamless global parameterization of a triangle
+//! mesh guided by a frame field with N-fold rotational symmetry, N = 2 (stripes), 4 (quads),
+//! 6 (hexagons).
+//!
+//! Pipeline ([`QuadCover::new`] once per mesh + matchings, [`QuadCover::solve`] per field):
+//! 1. Cut graph (`cut`): branch points from the matchings, a greedy shortest system of loops
+//!    with boundary vertices and branch points as one identified root; per-edge transitions.
+//! 2. Local step (`local`, alg. 3): co-gradient removal with the 2×2-block Crouzeix–Raviart
+//!    Laplacian (eq. 2.42), integration of the curl*-free field over the dual spanning forest.
+//! 3. Global step (`global`, alg. 4): loop gaps measured and rounded to the lattice, conforming
+//!    2×2-block Laplacian solved with the path basis (eq. 2.43–2.44); branch points land where
+//!    eq. 2.40 puts them (½Z² for quads, Z² with `pure_quad`).
+//!
+//! Both sparse systems depend only on geometry, matchings and cut graph, so they are factored in
+//! [`QuadCover::new`]; solving for new frames (same matchings) is back-substitution only.
+//!
+//! Output (per corner `3f + k`, Euclidean texture coordinates, grid unit 1): across every
+//! interior edge e with faces i = face(h0), j = face(h1), `uv_j = R^t uv_i + τ` with R the
+//! matching matrix M_1 (a rotation by −2π/N of texture space, `field::matching_matrix`) and τ in the lattice ([`Parameterization::transitions`]); t = 0, τ = 0 away
+//! from the cut graph.
+
+mod cut;
+mod global;
+mod local;
+mod metrics;
+mod rot;
+mod system;
+
+pub mod bench;
+
+use std::time::Instant;
+
+use glam::DVec3;
+use serde::Serialize;
+use thiserror::Error;
+
+use crate::mesh::TriMesh;
+use crate::sparse::SolverError;
+
+pub use local::curl_star;
+pub use rot::Lattice;
+
+use cut::CutGraph;
+use global::GlobalSystem;
+use local::LocalSystem;
+use rot::Rots;
+
+#[derive(Debug, Error)]
+pub enum ParamError {
+    #[error("invalid input: {0}")]
+    InvalidInput(String),
+    #[error(transparent)]
+    Solver(#[from] SolverError),
+}
+
+/// How loop gaps are rounded to the lattice.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub enum Rounding {
+    /// All gaps at once to the nearest lattice point (the thesis, alg. 4).
+    #[default]
+    Direct,
+    /// MIQ-style: fix the gap closest to the lattice, re-optimise the rest, repeat.
+    Greedy,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct ParamOptions {
+    pub rounding: Rounding,
+    /// Gaps in 2Z² (N = 2, 4) so that singularities land on Z² (end of sec. 2.4.5).
+    pub pure_quad: bool,
+}
+
+/// A frame field as QuadCover consumes it (see `FrameField` in docs/CONTRACTS.md): per face the
+/// rows (U, V) of the target Jacobian, per edge the matching r_e (φ_j = R^{r_e} φ_i + w).
+#[derive(Clone, Copy, Debug)]
+pub struct FieldRef<'a> {
+    pub symmetry: usize,
+    pub frames: &'a [[DVec3; 2]],
+    pub matchings: &'a [i32],
+}
+
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct StageTimings {
+    pub cut_ms: f64,
+    pub local_ms: f64,
+    pub global_ms: f64,
+}
+
+/// Transition across an interior edge: uv_j = R^rotation uv_i + translation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct EdgeTransition {
+    pub rotation: u8,
+    pub translation: [f64; 2],
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Singularity {
+    pub vertex: usize,
+    /// Index (multiple of 1/N).
+    pub index: f64,
+    /// Holonomy Σ r around the vertex (mod N): the fractional index times N.
+    pub holonomy: u8,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Distortion {
+    pub mean: f64,
+    pub p99: f64,
+}
+
+/// The local step's result: curl*-free frames, their integral on M \ G and the measured gaps.
+#[derive(Clone, Debug)]
+pub struct LocalSolution {
+    /// Curl*-free frames in each face's own frame (same convention as the input).
+    pub curl_free: Vec<[DVec3; 2]>,
+    disk: Vec<[DVec3; 2]>,
+    /// Integrated values per corner (disk frames), not yet seamless.
+    pub uv: Vec<[f64; 2]>,
+    /// Measured gap of each cut path (real valued).
+    pub gaps: Vec<[f64; 2]>,
+    pub local_ms: f64,
+}
+
+#[derive(Clone, Debug)]
+pub struct Parameterization {
+    pub symmetry: usize,
+    pub lattice: Lattice,
+    /// Per corner 3f + k.
+    pub uv: Vec<[f64; 2]>,
+    /// Interior vertices with non-zero index: the branch points (holonomy ≠ 0, fractional
+    /// index) and vertices of non-zero integral index (not branch points, sec. 4.3).
+    pub singularities: Vec<Singularity>,
+    /// One vertex path per cut path γ_k (2g + b + s − 1 of them, see [`expected_cut_paths`]).
+    pub cut_paths: Vec<Vec<usize>>,
+    /// Measured (local step) and rounded gaps per cut path.
+    pub gaps_measured: Vec<[f64; 2]>,
+    pub gaps: Vec<[f64; 2]>,
+    /// Per edge (identity on boundary edges and away from the cut graph).
+    pub transitions: Vec<EdgeTransition>,
+    pub flipped_faces: usize,
+    pub seam_max_error: f64,
+    pub conformal_distortion: Distortion,
+    pub area_distortion: f64,
+    pub timings: StageTimings,
+}
+
+/// Number of cut paths the construction yields: per component with genus g, b boundary loops
+/// and s branch points, 2g + b + s − 1 if b + s ≥ 1, else 2g; summed over components.
+pub fn expected_cut_paths(genus: usize, boundary_loops: usize, branch_points: usize) -> usize {
+    let k = boundary_loops + branch_points;
+    if k == 0 { 2 * genus } else { 2 * genus + k - 1 }
+}
+
+/// A prepared QuadCover solver for one mesh, symmetry and set of matchings.
+pub struct QuadCover {
+    symmetry: usize,
+    lattice: Lattice,
+    rots: Rots,
+    cut: CutGraph,
+    local: LocalSystem,
+    global: GlobalSystem,
+    opts: ParamOptions,
+    pub timings: StageTimings,
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+impl QuadCover {
+    /// Cut graph and both factorizations (the expensive, field-independent part).
+    pub fn new(
+        mesh: &TriMesh,
+        symmetry: usize,
+        matchings: &[i32],
+        opts: ParamOptions,
+    ) -> Result<QuadCover, ParamError> {
+        if ![2, 4, 6].contains(&symmetry) {
+            return Err(ParamError::InvalidInput(format!(
+                "symmetry must be 2, 4 or 6, got {symmetry}"
+            )));
+        }
+        if matchings.len() != mesh.n_edges() {
+            return Err(ParamError::InvalidInput(format!(
+                "{} matchings for {} edges",
+                matchings.len(),
+                mesh.n_edges()
+            )));
+        }
+        if mesh.n_faces() == 0 {
+            return Err(ParamError::InvalidInput("mesh has no faces".into()));
+        }
+        let lattice = match (symmetry, opts.pure_quad) {
+            (6, true) => {
+                return Err(ParamError::InvalidInput(
+                    "--pure-quad needs symmetry 2 or 4".into(),
+                ));
+            }
+            (6, false) => Lattice::G6,
+            (_, true) => Lattice::TwoZ2,
+            _ => Lattice::Z2,
+        };
+        let rots = Rots::new(symmetry);
+        let t = Instant::now();
+        let cut = CutGraph::new(mesh, &rots, matchings);
+        let cut_ms = ms(t);
+        let t = Instant::now();
+        let local = LocalSystem::new(mesh, &cut, &rots)?;
+        let local_ms = ms(t);
+        let t = Instant::now();
+        let global = GlobalSystem::new(mesh, &cut, &rots)?;
+        let global_ms = ms(t);
+        Ok(QuadCover {
+            symmetry,
+            lattice,
+            rots,
+            cut,
+            local,
+            global,
+            opts,
+            timings: StageTimings {
+                cut_ms,
+                local_ms,
+                global_ms,
+            },
+        })
+    }
+
+    pub fn n_cut_paths(&self) -> usize {
+        self.cut.generators.len()
+    }
+    pub fn branch_points(&self) -> Vec<(usize, u8)> {
+        (0..self.cut.singular.len())
+            .filter(|&v| self.cut.singular[v])
+            .map(|v| (v, self.cut.holonomy[v]))
+            .collect()
+    }
+    /// Edges of the (pruned) cut graph: those with a non-identity transition.
+    pub fn cut_edges(&self) -> Vec<usize> {
+        self.cut.cut_edges()
+    }
+
+    fn check_frames(&self, mesh: &TriMesh, frames: &[[DVec3; 2]]) -> Result<(), ParamError> {
+        if frames.len() != mesh.n_faces() {
+            return Err(ParamError::InvalidInput(format!(
+                "{} frames for {} faces",
+                frames.len(),
+                mesh.n_faces()
+            )));
+        }
+        if let Some(f) = frames
+            .iter()
+            .position(|x| !x[0].is_finite() || !x[1].is_finite())
+        {
+            return Err(ParamError::InvalidInput(format!(
+                "frame of face {f} is not finite"
+            )));
+        }
+        Ok(())
+    }
+
+    /// Local step: curl*-free field, integration on M \ G, measured gaps (back-substitution only).
+    pub fn local_step(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[DVec3; 2]],
+    ) -> Result<LocalSolution, ParamError> {
+        self.check_frames(mesh, frames)?;
+        let t = Instant::now();
+        let curl_free = self.local.solve(mesh, &self.cut, &self.rots, frames)?;
+        let disk = local::to_disk_frame(&self.rots, &self.cut, &curl_free);
+        let uv = local::integrate(mesh, &self.cut, &disk);
+        let gaps = global::measure_gaps(mesh, &self.cut, &self.rots, &uv);
+        Ok(LocalSolution {
+            curl_free,
+            disk,
+            uv,
+            gaps,
+            local_ms: ms(t),
+        })
+    }
+
+    /// Rounds the measured gaps with the configured rounding.
+    pub fn round_gaps(
+        &self,
+        mesh: &TriMesh,
+        local: &LocalSolution,
+    ) -> Result<Vec<[f64; 2]>, ParamError> {
+        match self.opts.rounding {
+            Rounding::Direct => Ok(local
+                .gaps
+                .iter()
+                .map(|&g| self.lattice.nearest(g))
+                .collect()),
+            Rounding::Greedy => {
+                self.global
+                    .greedy_round(mesh, &self.rots, &local.gaps, self.lattice)
+            }
+        }
+    }
+
+    /// Global solve with the given gaps (reuses the factorization): per-corner uv.
+    pub fn global_uv(
+        &self,
+        mesh: &TriMesh,
+        local: &LocalSolution,
+        gaps: &[[f64; 2]],
+    ) -> Result<Vec<[f64; 2]>, ParamError> {
+        if gaps.len() != self.cut.generators.len() {
+            return Err(ParamError::InvalidInput(format!(
+                "{} gaps for {} cut paths",
+                gaps.len(),
+                self.cut.generators.len()
+            )));
+        }
+        self.global.solve(mesh, &self.rots, &local.disk, gaps)
+    }
+
+    /// Local step, rounding, global step and the quality report.
+    pub fn solve(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[DVec3; 2]],
+    ) -> Result<Parameterization, ParamError> {
+        let local = self.local_step(mesh, frames)?;
+        let t = Instant::now();
+        let gaps = self.round_gaps(mesh, &local)?;
+        let uv = self.global_uv(mesh, &local, &gaps)?;
+        let global_ms = ms(t);
+        let mut p = self.finish(mesh, frames, uv, local.gaps.clone(), gaps);
+        p.timings = StageTimings {
+            cut_ms: self.timings.cut_ms,
+            local_ms: self.timings.local_ms + local.local_ms,
+            global_ms: self.timings.global_ms + global_ms,
+        };
+        Ok(p)
+    }
+
+    fn finish(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[DVec3; 2]],
+        uv: Vec<[f64; 2]>,
+        measured: Vec<[f64; 2]>,
+        gaps: Vec<[f64; 2]>,
+    ) -> Parameterization {
+        let trans: Vec<(u8, [f64; 2])> = self
+            .cut
+            .transitions
+            .iter()
+            .map(|a| (a.rot, a.lin.eval(&gaps)))
+            .collect();
+        let seam_max_error = metrics::seam_error(mesh, &self.rots, &uv, &trans, self.lattice);
+        let q = metrics::quality(mesh, &uv);
+        let singularities = (0..mesh.n_vertices())
+            .filter(|&v| !mesh.is_boundary_vertex(v))
+            .map(|v| Singularity {
+                vertex: v,
+                index: metrics::vertex_index(mesh, &self.cut, self.symmetry, frames, v),
+                holonomy: self.cut.holonomy[v],
+            })
+            .filter(|s| s.holonomy != 0 || s.index != 0.0)
+            .collect();
+        Parameterization {
+            symmetry: self.symmetry,
+            lattice: self.lattice,
+            uv,
+            singularities,
+            cut_paths: self.cut.paths(mesh),
+            gaps_measured: measured,
+            gaps,
+            transitions: trans
+                .into_iter()
+                .map(|(rotation, translation)| EdgeTransition {
+                    rotation,
+                    translation,
+                })
+                .collect(),
+            flipped_faces: q.flipped,
+            seam_max_error,
+            conformal_distortion: Distortion {
+                mean: q.conformal_mean,
+                p99: q.conformal_p99,
+            },
+            area_distortion: q.area_distortion,
+            timings: StageTimings::default(),
+        }
+    }
+}
+
+/// One-shot QuadCover: prepare and solve.
+pub fn parameterize(
+    mesh: &TriMesh,
+    field: FieldRef<'_>,
+    opts: &ParamOptions,
+) -> Result<Parameterization, ParamError> {
+    QuadCover::new(mesh, field.symmetry, field.matchings, opts.clone())?.solve(mesh, field.frames)
+}
+
+/// Best-fit matchings for frames with V = J U (thesis eq. 3.3 generalised to N): per interior
+/// edge the r minimising the angle between U_j and R^r-matched U_i after unfolding. A local
+/// helper (the field module owns field design); used by tests and as a fallback.
+pub fn fit_matchings(mesh: &TriMesh, symmetry: usize, frames: &[[DVec3; 2]]) -> Vec<i32> {
+    let step = std::f64::consts::TAU / symmetry as f64;
+    (0..mesh.n_edges())
+        .map(|e| {
+            let (h0, Some(h1)) = mesh.edge_halfedges(e) else {
+                return 0;
+            };
+            let d = mesh.vector(h0).normalize_or_zero();
+            let ang = |f: usize| {
+                let u = frames[f][0];
+                u.dot(mesh.face_normal(f).cross(d)).atan2(u.dot(d))
+            };
+            // U_j ≈ cos·U_i + sin·V_i = rot(+r·step) U_i  ⇒  r ≈ (angle_j − angle_i) / step
+            let r = ((ang(mesh.face_of(h1)) - ang(mesh.face_of(h0))) / step).round() as i64;
+            r.rem_euclid(symmetry as i64) as i32
+        })
+        .collect()
+}
+
+/// Frames V = J U with U the projection of a fixed direction onto each face (fallback to a face
+/// edge where the direction is normal), scaled by `scale`.
+pub fn projected_frames(mesh: &TriMesh, dir: DVec3, scale: f64) -> Vec<[DVec3; 2]> {
+    (0..mesh.n_faces())
+        .map(|f| {
+            let n = mesh.face_normal(f);
+            let mut u = dir - n * n.dot(dir);
+            if u.length() < 1e-3 * dir.length() {
+                u = mesh.face_basis(f).0;
+            }
+            let u = u.normalize() * scale;
+            [u, n.cross(u)]
+        })
+        .collect()
+}

@@ -1,0 +1,188 @@
+//! Rotations of texture space by multiples of 2π/N, small 2×2 algebra, sparse linear
+//! combinations of loop gaps, and the translation lattices (Z², 2Z², Eisenstein G6).
+
+/// A 2×2 matrix, row-major `[a, b, c, d]` = [[a, b], [c, d]].
+pub(crate) type M2 = [f64; 4];
+
+pub(crate) const ID: M2 = [1.0, 0.0, 0.0, 1.0];
+
+pub(crate) fn mul(a: &M2, b: &M2) -> M2 {
+    [
+        a[0] * b[0] + a[1] * b[2],
+        a[0] * b[1] + a[1] * b[3],
+        a[2] * b[0] + a[3] * b[2],
+        a[2] * b[1] + a[3] * b[3],
+    ]
+}
+pub(crate) fn apply(a: &M2, v: [f64; 2]) -> [f64; 2] {
+    [a[0] * v[0] + a[1] * v[1], a[2] * v[0] + a[3] * v[1]]
+}
+pub(crate) fn transpose(a: &M2) -> M2 {
+    [a[0], a[2], a[1], a[3]]
+}
+pub(crate) fn inverse(a: &M2) -> M2 {
+    let det = a[0] * a[3] - a[1] * a[2];
+    [a[3] / det, -a[1] / det, -a[2] / det, a[0] / det]
+}
+pub(crate) fn sub(a: &M2, b: &M2) -> M2 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2], a[3] - b[3]]
+}
+
+/// The matrices R^k, k in 0..N, with R = M_1 = [[cos a, sin a], [−sin a, cos a]], a = 2π/N: the
+/// field module's matching matrix (`field::matching_matrix`), acting on stacked frame rows and on
+/// texture coordinates alike (φ_j = R^{r_ij} φ_i + w_ij). Exact entries for multiples of 90°.
+#[derive(Clone, Debug)]
+pub(crate) struct Rots {
+    pub n: usize,
+    m: Vec<M2>,
+}
+
+impl Rots {
+    pub fn new(n: usize) -> Rots {
+        let snap = |x: f64| {
+            for t in [0.0, 0.5, -0.5, 1.0, -1.0] {
+                if (x - t).abs() < 1e-14 {
+                    return t;
+                }
+            }
+            x
+        };
+        let m = (0..n)
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / n as f64;
+                let (c, s) = (snap(a.cos()), snap(a.sin()));
+                [c, s, -s, c]
+            })
+            .collect();
+        Rots { n, m }
+    }
+    pub fn norm(&self, k: i64) -> u8 {
+        k.rem_euclid(self.n as i64) as u8
+    }
+    pub fn get(&self, k: i64) -> &M2 {
+        &self.m[k.rem_euclid(self.n as i64) as usize]
+    }
+}
+
+/// A sparse linear combination Σ_k M_k W_k of the 2-D loop gaps W_k (sorted by k).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct Lin(pub Vec<(u32, M2)>);
+
+impl Lin {
+    pub fn single(k: usize) -> Lin {
+        Lin(vec![(k as u32, ID)])
+    }
+    pub fn is_zero(&self) -> bool {
+        self.0.is_empty()
+    }
+    /// M · self.
+    pub fn left(&self, m: &M2) -> Lin {
+        Lin(self.0.iter().map(|(k, a)| (*k, mul(m, a))).collect())
+    }
+    pub fn add(&self, other: &Lin) -> Lin {
+        let (a, b) = (&self.0, &other.0);
+        let mut out = Vec::with_capacity(a.len() + b.len());
+        let (mut i, mut j) = (0, 0);
+        while i < a.len() || j < b.len() {
+            if j >= b.len() || (i < a.len() && a[i].0 < b[j].0) {
+                out.push(a[i]);
+                i += 1;
+            } else if i >= a.len() || b[j].0 < a[i].0 {
+                out.push(b[j]);
+                j += 1;
+            } else {
+                let m = [
+                    a[i].1[0] + b[j].1[0],
+                    a[i].1[1] + b[j].1[1],
+                    a[i].1[2] + b[j].1[2],
+                    a[i].1[3] + b[j].1[3],
+                ];
+                if m.iter().any(|x| x.abs() > 1e-12) {
+                    out.push((a[i].0, m));
+                }
+                i += 1;
+                j += 1;
+            }
+        }
+        Lin(out)
+    }
+    pub fn eval(&self, w: &[[f64; 2]]) -> [f64; 2] {
+        let mut s = [0.0; 2];
+        for (k, m) in &self.0 {
+            let v = apply(m, w[*k as usize]);
+            s[0] += v[0];
+            s[1] += v[1];
+        }
+        s
+    }
+}
+
+/// An affine map x ↦ R^rot x + lin(W) of texture space.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct Aff {
+    pub rot: u8,
+    pub lin: Lin,
+}
+
+impl Aff {
+    pub fn is_identity(&self) -> bool {
+        self.rot == 0 && self.lin.is_zero()
+    }
+    /// `self ∘ first`: x ↦ self(first(x)).
+    pub fn after(&self, first: &Aff, r: &Rots) -> Aff {
+        Aff {
+            rot: r.norm(self.rot as i64 + first.rot as i64),
+            lin: first.lin.left(r.get(self.rot as i64)).add(&self.lin),
+        }
+    }
+    pub fn inverse(&self, r: &Rots) -> Aff {
+        let m = r.get(-(self.rot as i64));
+        let neg = [-m[0], -m[1], -m[2], -m[3]];
+        Aff {
+            rot: r.norm(-(self.rot as i64)),
+            lin: self.lin.left(&neg),
+        }
+    }
+}
+
+/// Translation lattice of the gaps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Lattice {
+    /// Z² (quads N = 4, stripes N = 2).
+    Z2,
+    /// 2Z² (`pure_quad`: singularities on Z²).
+    TwoZ2,
+    /// Eisenstein integers a(1,0) + b(1/2, √3/2) (hexagons, N = 6).
+    G6,
+}
+
+impl Lattice {
+    pub fn nearest(self, p: [f64; 2]) -> [f64; 2] {
+        match self {
+            Lattice::Z2 => [p[0].round(), p[1].round()],
+            Lattice::TwoZ2 => [2.0 * (p[0] / 2.0).round(), 2.0 * (p[1] / 2.0).round()],
+            Lattice::G6 => {
+                let s3 = 3f64.sqrt();
+                let b = 2.0 * p[1] / s3;
+                let a = p[0] - 0.5 * b;
+                let (a0, b0) = (a.floor(), b.floor());
+                let mut best = [0.0; 2];
+                let mut bd = f64::INFINITY;
+                for (da, db) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
+                    let (aa, bb) = (a0 + da, b0 + db);
+                    let q = [aa + 0.5 * bb, bb * s3 / 2.0];
+                    let d = (q[0] - p[0]).hypot(q[1] - p[1]);
+                    if d < bd {
+                        bd = d;
+                        best = q;
+                    }
+                }
+                best
+            }
+        }
+    }
+    pub fn distance(self, p: [f64; 2]) -> f64 {
+        let q = self.nearest(p);
+        (q[0] - p[0]).hypot(q[1] - p[1])
+    }
+}
