@@ -288,12 +288,10 @@ pub fn compute_field(mesh: &TriMesh, params: &FieldParams) -> Result<FieldResult
         frames,
         matchings,
     };
-    let mut clock2 = Instant::now();
     timings.push(("density + frames".into(), clock.elapsed().as_secs_f64()));
+    let clock = Instant::now();
     let indices = index::indices_from_angles(mesh, &tr, &sm.theta, &field.matchings, n);
-    timings.push(("singularities".into(), clock2.elapsed().as_secs_f64()));
-    clock2 = Instant::now();
-    let _ = clock2;
+    timings.push(("singularities".into(), clock.elapsed().as_secs_f64()));
     Ok(FieldResult {
         field,
         theta: sm.theta,
@@ -400,4 +398,113 @@ pub fn bench_field(mesh: &TriMesh) -> Vec<(String, f64)> {
     };
     out.push(("field total".into(), t.elapsed().as_secs_f64()));
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::generate;
+
+    #[test]
+    fn matching_matrix_is_a_rotation_of_order_n() {
+        for sym in [Symmetry::Two, Symmetry::Four, Symmetry::Six] {
+            let m = matching_matrix(sym, 1);
+            let mut p = [[1.0, 0.0], [0.0, 1.0]];
+            for _ in 0..sym.n() {
+                p = [
+                    [
+                        p[0][0] * m[0][0] + p[0][1] * m[1][0],
+                        p[0][0] * m[0][1] + p[0][1] * m[1][1],
+                    ],
+                    [
+                        p[1][0] * m[0][0] + p[1][1] * m[1][0],
+                        p[1][0] * m[0][1] + p[1][1] * m[1][1],
+                    ],
+                ];
+            }
+            assert!(
+                (p[0][0] - 1.0).abs() < 1e-12
+                    && p[0][1].abs() < 1e-12
+                    && (p[1][1] - 1.0).abs() < 1e-12
+            );
+            assert_eq!(
+                matching_matrix(sym, -1),
+                matching_matrix(sym, sym.n() as i32 - 1)
+            );
+        }
+        // N = 4, r = 1: (U; V) -> (V; -U).
+        assert_eq!(
+            matching_matrix(Symmetry::Four, 1).map(|r| r.map(|x| x.round())),
+            [[0.0, 1.0], [-1.0, 0.0]]
+        );
+        assert!(Symmetry::from_n(3).is_err());
+    }
+
+    #[test]
+    fn eig2_and_wrap() {
+        let (a, b, d) = curvature::eig2(2.0, 0.0, -1.0);
+        assert_eq!((a, b, d), (2.0, -1.0, 0.0));
+        let (a, b, d) = curvature::eig2(0.0, 1.0, 0.0);
+        assert!(
+            (a - 1.0).abs() < 1e-15
+                && (b + 1.0).abs() < 1e-15
+                && (d - std::f64::consts::FRAC_PI_4).abs() < 1e-15
+        );
+        assert_eq!(wrap_pi(3.0 * std::f64::consts::PI), std::f64::consts::PI);
+        assert!((wrap_pi(-0.5 - TAU) + 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn classification_of_model_shapes() {
+        use classify::{ShapeClass::*, classify};
+        assert_eq!(classify(0.0, 0.0, 1e-3), Planar);
+        assert_eq!(classify(1.0, 1.0, 1e-3), Elliptic);
+        assert_eq!(classify(-1.0, -1.0, 1e-3), Elliptic);
+        assert_eq!(classify(1.0, -1.0, 1e-3), Hyperbolic);
+        assert_eq!(classify(1.0, 0.0, 1e-3), Cylindrical);
+        assert_eq!(classify(0.0, -1.0, 1e-3), Cylindrical);
+    }
+
+    #[test]
+    fn curvature_of_cylinder_and_sphere() {
+        let cyl = generate::cylinder(2.0, 4.0, 64, 32);
+        let b = FaceBases::new(&cyl);
+        let c = Curvature::compute(&cyl, &b);
+        // Interior faces (away from the open ends, where edges are missing).
+        let mut n = 0;
+        for f in 0..cyl.n_faces() {
+            let z = cyl.face_centroid(f).z;
+            if (0.5..3.5).contains(&z) {
+                assert!((c.k1[f] - 0.5).abs() < 0.03, "k1 {}", c.k1[f]);
+                assert!(c.k2[f].abs() < 0.03, "k2 {}", c.k2[f]);
+                let d = b.direction(f, c.dir1[f]);
+                assert!(d.z.abs() < 0.05, "max direction goes around");
+                n += 1;
+            }
+        }
+        assert!(n > 0);
+        let s = generate::icosphere(4);
+        let c = Curvature::compute(&s, &FaceBases::new(&s));
+        for f in 0..s.n_faces() {
+            assert!((c.k1[f] - 1.0).abs() < 0.05 && (c.k2[f] - 1.0).abs() < 0.05);
+        }
+    }
+
+    #[test]
+    fn reliability_keeps_the_requested_fraction() {
+        let c = Curvature {
+            k1: (0..100).map(|i| i as f64).collect(),
+            k2: vec![0.0; 100],
+            dir1: vec![0.0; 100],
+        };
+        let w = c.reliability(0.1, &[true; 100]);
+        assert_eq!(w.iter().filter(|x| **x > 0.0).count(), 10);
+        assert_eq!(w[99], 1.0);
+        assert_eq!(w[89], 0.0);
+        let mut cand = [true; 100];
+        cand[99] = false;
+        let w = c.reliability(0.1, &cand);
+        assert_eq!(w[99], 0.0);
+        assert!((w[98] - 98.0 / 99.0).abs() < 1e-15);
+    }
 }
