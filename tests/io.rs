@@ -886,3 +886,85 @@ fn shared_meshes_have_the_documented_counts() {
     }
     assert_eq!(seen, expected.len());
 }
+
+/// Independent oracle: `tobj` (f32 coordinates) sees the same polygons, corner by corner, in the
+/// valid OBJ files and the shared meshes.
+#[test]
+fn obj_reader_agrees_with_tobj() {
+    // (Not cube_relative.obj: tobj rejects colours given on only some `v` records.)
+    let mut files = vec![data("ok/cube.obj")];
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/meshes");
+    if let Ok(dir) = std::fs::read_dir(&shared) {
+        files.extend(
+            dir.map(|e| e.unwrap().path())
+                .filter(|p| p.extension().is_some_and(|e| e == "obj")),
+        );
+    }
+    let opts = tobj::LoadOptions {
+        triangulate: false,
+        single_index: false,
+        ..Default::default()
+    };
+    for path in files {
+        let soup = read_mesh(&path).unwrap();
+        let (models, _) = tobj::load_obj(&path, &opts).unwrap();
+        // Our polygons' corner positions, from the fan triangles of each source polygon.
+        let mut ours: Vec<Vec<DVec3>> = Vec::new();
+        for (t, tri) in soup.triangles.iter().enumerate() {
+            let p = soup.source_polygon[t] as usize;
+            if p == ours.len() {
+                ours.push(vec![soup.positions[tri[0] as usize]]);
+            }
+            ours[p].extend([1, 2].map(|k| soup.positions[tri[k] as usize]));
+        }
+        // Fan corners: v0 v1 v2, then v0 v2 v3 ... -> keep v0, v1, v2, v3, ...
+        let ours: Vec<Vec<DVec3>> = ours
+            .into_iter()
+            .map(|c| {
+                let mut poly = vec![c[0], c[1]];
+                poly.extend(c[2..].iter().step_by(2));
+                poly
+            })
+            .collect();
+        let mut theirs: Vec<Vec<DVec3>> = Vec::new();
+        for m in &models {
+            let mesh = &m.mesh;
+            let pos = |i: u32| {
+                let i = i as usize * 3;
+                DVec3::new(
+                    mesh.positions[i] as f64,
+                    mesh.positions[i + 1] as f64,
+                    mesh.positions[i + 2] as f64,
+                )
+            };
+            let arities: Vec<u32> = if mesh.face_arities.is_empty() {
+                vec![3; mesh.indices.len() / 3]
+            } else {
+                mesh.face_arities.clone()
+            };
+            let mut c = 0;
+            for a in arities {
+                theirs.push(
+                    mesh.indices[c..c + a as usize]
+                        .iter()
+                        .map(|&i| pos(i))
+                        .collect(),
+                );
+                c += a as usize;
+            }
+        }
+        assert_eq!(ours.len(), theirs.len(), "{}", path.display());
+        for (f, (a, b)) in ours.iter().zip(&theirs).enumerate() {
+            assert_eq!(a.len(), b.len(), "{} face {f}", path.display());
+            for (x, y) in a.iter().zip(b) {
+                // tobj rounds to f32.
+                let tol = 1e-6 * x.abs().max_element().max(1.0);
+                assert!(
+                    (*x - *y).abs().max_element() <= tol,
+                    "{} face {f}: {x} vs {y}",
+                    path.display()
+                );
+            }
+        }
+    }
+}
