@@ -7,4 +7,5 @@ pub mod app;
 pub mod field;
 pub mod io;
 pub mod mesh;
+pub mod param;
 pub mod sparse;

@@ -8,6 +8,7 @@ use clap::{Parser, Subcommand};
 
 pub mod bench;
 mod info;
+pub mod solve;
 
 /// Field-guided global parameterization and tiling of triangle meshes (QuadCover).
 #[derive(Debug, Parser)]
@@ -25,6 +26,8 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Time each pipeline stage (and peak memory) on meshes of about 10k, 100k and 1M triangles.
     Bench(bench::BenchArgs),
+    /// Seamless QuadCover parameterization (N = 2, 4, 6): per-corner UVs to OBJ, JSON report.
+    Solve(solve::SolveArgs),
 }
 
 /// Exit code for bad input (invalid mesh, unreadable file, bad arguments).
@@ -35,6 +38,7 @@ pub fn run(command: Command) -> ExitCode {
     let result = match command {
         Command::Info(args) => info::run(&args),
         Command::Bench(args) => bench::run(&args),
+        Command::Solve(args) => solve::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

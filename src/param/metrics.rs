@@ -46,6 +46,8 @@ pub(crate) fn jacobians(mesh: &TriMesh, uv: &[[f64; 2]]) -> Vec<(f64, f64, f64)>
         .collect()
 }
 
+const CAP: f64 = 1000.0;
+
 pub(crate) struct Quality {
     pub flipped: usize,
     pub conformal_mean: f64,
@@ -56,6 +58,7 @@ pub(crate) struct Quality {
 /// Over the valid faces (det J > 0, σ_min > 0; flipped and degenerate faces are counted in
 /// `flipped`): conformal distortion σ_max/σ_min (area-weighted mean, 99th percentile over faces);
 /// area distortion = area-weighted mean of max(r, 1/r), r = det J / (area-weighted mean |det J|).
+/// Per-face values enter the means capped at 1000 (near-degenerate images would dominate).
 pub(crate) fn quality(mesh: &TriMesh, uv: &[[f64; 2]]) -> Quality {
     let j = jacobians(mesh, uv);
     let areas: Vec<f64> = (0..mesh.n_faces()).map(|f| mesh.face_area(f)).collect();
@@ -81,7 +84,7 @@ pub(crate) fn quality(mesh: &TriMesh, uv: &[[f64; 2]]) -> Quality {
         .zip(&areas)
         .zip(&valid)
         .filter(|x| *x.1)
-        .map(|((x, a), _)| x.1 / x.2 * a)
+        .map(|((x, a), _)| (x.1 / x.2).min(CAP) * a)
         .sum::<f64>()
         / vtotal;
     let mut sorted = conf.clone();
@@ -103,7 +106,7 @@ pub(crate) fn quality(mesh: &TriMesh, uv: &[[f64; 2]]) -> Quality {
         .filter(|x| *x.1)
         .map(|((x, a), _)| {
             let r = x.0 / mean_det;
-            r.max(1.0 / r) * a
+            r.max(1.0 / r).min(CAP) * a
         })
         .sum::<f64>()
         / vtotal;
