@@ -4,8 +4,11 @@
 //! topology, validation), [`io`] (file formats), [`sparse`] (the one solver wrapper over faer),
 //! [`field`] (frame fields), [`param`] (QuadCover), and the headless [`cli`].
 pub mod app;
+pub mod cli;
+pub mod extract;
 pub mod field;
 pub mod io;
+pub mod load;
 pub mod mesh;
 pub mod param;
 pub mod sparse;

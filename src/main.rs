@@ -9,10 +9,12 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Some(command) => run(command),
-        // The editor is wired in once src/app lands.
-        None => {
-            eprintln!("the editor is not built yet; try `quadcover info MESH`");
-            ExitCode::FAILURE
-        }
+        None => match quadcover::app::run_editor(cli.mesh) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: could not start the editor: {e}");
+                ExitCode::FAILURE
+            }
+        },
     }
 }
