@@ -464,3 +464,40 @@ fn real_meshes_all_symmetries() {
     }
     assert!(checked >= 27);
 }
+
+/// Stage timings (run with `--ignored --nocapture`): bunny, cerebral vessels and a 100k torus.
+#[test]
+#[ignore]
+fn bench_stages() {
+    let mut cases: Vec<(String, TriMesh)> =
+        vec![("torus-100k".into(), generate::torus(3.0, 1.0, 250, 200))];
+    for name in ["bunny.obj", "cerebral-vessels.obj", "igea.obj"] {
+        let path = Path::new(MESHES).join(name);
+        if path.exists() {
+            cases.push((name.into(), quadcover::load::load_mesh(&path).unwrap().mesh));
+        }
+    }
+    for (name, mesh) in cases {
+        for n in [4u32, 2, 6] {
+            let params = FieldParams {
+                symmetry: Symmetry::from_n(n).unwrap(),
+                ..Default::default()
+            };
+            let t = std::time::Instant::now();
+            let fr = field::compute_field(&mesh, &params).unwrap();
+            let field_ms = t.elapsed().as_secs_f64() * 1e3;
+            let stages =
+                param::bench::bench_param(&mesh, n as usize, &fr.field.frames, &fr.field.matchings)
+                    .unwrap();
+            let s: Vec<String> = stages
+                .iter()
+                .map(|(k, v)| format!("{}={v:.0}", k.trim_start_matches("param.")))
+                .collect();
+            eprintln!(
+                "{name} F={} N={n} field={field_ms:.0}ms {}",
+                mesh.n_faces(),
+                s.join(" ")
+            );
+        }
+    }
+}
