@@ -8,9 +8,11 @@ use std::time::Instant;
 use clap::Args;
 
 use super::CliError;
+use crate::field::{FieldParams, compute_field};
 use crate::load::load_mesh;
 use crate::mesh::TriMesh;
 use crate::mesh::generate::subdivide;
+use crate::param::{ParamOptions, QuadCover, Rounding};
 
 #[derive(Debug, Args)]
 pub struct BenchArgs {
@@ -100,21 +102,75 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-/// The measured stages of the pipeline on one mesh.
+/// Greedy rounding re-solves once per integer variable: only run it on meshes up to this size.
+const GREEDY_MAX_TRIANGLES: usize = 150_000;
+
+/// The measured stages of the pipeline on one mesh (N = 4, default parameters).
 fn stages(rows: &mut Vec<Row>, name: &str, mesh: &TriMesh) -> Result<(), CliError> {
     let n = mesh.n_faces();
-    measure(rows, name, n, "topology", || mesh.topology());
+    let mut total = 0.0;
+    let params = FieldParams::default();
+    let field = measure(rows, name, n, "field (curvature + smoothing)", || {
+        compute_field(mesh, &params)
+    })?;
+    total += rows.last().map_or(0.0, |r| r.seconds);
+    for (stage, seconds) in &field.timings {
+        rows.push(Row {
+            mesh: name.into(),
+            triangles: n,
+            stage: format!("  field.{stage}"),
+            seconds: *seconds,
+            peak_mib: f64::NAN,
+        });
+    }
+    let (frames, matchings) = (&field.field.frames, &field.field.matchings);
+    let symmetry = field.field.symmetry.n() as usize;
+    let qc = measure(rows, name, n, "param.prepare (cut + factor)", || {
+        QuadCover::new(mesh, symmetry, matchings, ParamOptions::default())
+    })?;
+    total += rows.last().map_or(0.0, |r| r.seconds);
+    let local = measure(rows, name, n, "param.local (solve + integrate)", || {
+        qc.local_step(mesh, frames)
+    })?;
+    total += rows.last().map_or(0.0, |r| r.seconds);
+    let gaps = measure(rows, name, n, "param.global (direct rounding)", || {
+        let gaps = qc.round_gaps(mesh, &local)?;
+        qc.global_uv(mesh, &local, &gaps).map(|_| gaps)
+    })?;
+    total += rows.last().map_or(0.0, |r| r.seconds);
+    rows.push(Row {
+        mesh: name.into(),
+        triangles: n,
+        stage: "TOTAL curvature..global".into(),
+        seconds: total,
+        peak_mib: f64::NAN,
+    });
+    let shifted: Vec<[f64; 2]> = gaps.iter().map(|g| [g[0] + 1.0, g[1]]).collect();
+    measure(rows, name, n, "param.global re-solve (reused)", || {
+        qc.global_uv(mesh, &local, &shifted)
+    })?;
+    if n <= GREEDY_MAX_TRIANGLES {
+        let greedy = ParamOptions {
+            rounding: Rounding::Greedy,
+            pure_quad: false,
+        };
+        let qg = QuadCover::new(mesh, symmetry, matchings, greedy)?;
+        measure(rows, name, n, "param.global (greedy rounding)", || {
+            let gaps = qg.round_gaps(mesh, &local)?;
+            qg.global_uv(mesh, &local, &gaps)
+        })?;
+    }
     Ok(())
 }
 
 fn print_table(rows: &[Row]) {
     println!(
-        "{:<12} {:>10} {:<28} {:>10} {:>10}",
+        "{:<12} {:>10} {:<46} {:>10} {:>10}",
         "mesh", "triangles", "stage", "ms", "peak MiB"
     );
     for r in rows {
         println!(
-            "{:<12} {:>10} {:<28} {:>10.1} {:>10.0}",
+            "{:<12} {:>10} {:<46} {:>10.1} {:>10.0}",
             r.mesh,
             r.triangles,
             r.stage,
