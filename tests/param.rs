@@ -1,6 +1,8 @@
 //! QuadCover (issue #4): seamlessness by the output contract, curl*-freeness of the local step,
 //! singularity placement, cut-path counts, simplified QuadCover equivalence, real meshes.
 
+#![allow(clippy::needless_range_loop)]
+
 use std::f64::consts::TAU;
 use std::path::Path;
 

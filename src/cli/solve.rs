@@ -105,10 +105,11 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let total = Instant::now();
     let symmetry = Symmetry::from_n(args.symmetry)?;
     let n = args.symmetry as usize;
-    if let Some(s) = args.scale {
-        if !(s > 0.0 && s.is_finite()) {
-            return Err(format!("--scale must be positive, got {s}").into());
-        }
+    if let Some(s) = args
+        .scale
+        .filter(|s| s.is_nan() || *s <= 0.0 || s.is_infinite())
+    {
+        return Err(format!("--scale must be positive, got {s}").into());
     }
     if args.target_vertices == Some(0) {
         return Err("--target-vertices must be positive".into());
@@ -153,7 +154,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                     .map(|x| 0.5 * (x[0].length() + x[1].length()))
                     .sum::<f64>()
                     / f.frames.len() as f64;
-                if !(mean > 0.0) {
+                if mean.is_nan() || mean <= 0.0 {
                     return Err(format!("{}: frames have zero length", path.display()).into());
                 }
                 let k = 1.0 / (h * mean);

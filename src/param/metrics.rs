@@ -63,7 +63,7 @@ pub(crate) fn quality(mesh: &TriMesh, uv: &[[f64; 2]]) -> Quality {
     let j = jacobians(mesh, uv);
     let areas: Vec<f64> = (0..mesh.n_faces()).map(|f| mesh.face_area(f)).collect();
     let total: f64 = areas.iter().sum::<f64>().max(f64::MIN_POSITIVE);
-    let flipped = j.iter().filter(|x| !(x.0 > 0.0)).count();
+    let flipped = j.iter().filter(|x| x.0.is_nan() || x.0 <= 0.0).count();
     // Distortion over the valid (non-flipped, non-degenerate) faces; flips are counted apart.
     let valid: Vec<bool> = j.iter().map(|x| x.0 > 0.0 && x.2 > 0.0).collect();
     let vtotal: f64 = areas

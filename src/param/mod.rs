@@ -19,6 +19,9 @@
 //! matching matrix M_1 (a rotation by −2π/N of texture space, `field::matching_matrix`) and τ in the lattice ([`Parameterization::transitions`]); t = 0, τ = 0 away
 //! from the cut graph.
 
+// Index loops over the 3 corners / vertices read clearer than iterator chains here.
+#![allow(clippy::needless_range_loop)]
+
 mod cut;
 mod global;
 mod local;
