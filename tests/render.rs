@@ -421,3 +421,36 @@ fn viewport_uploads_once_per_revision() {
     res.sync_scene(&off.device, 8, Some(&scene));
     assert_eq!(res.renderer.uploads, 2);
 }
+
+#[test]
+fn image_pattern_uses_the_user_texture() {
+    let Some(mut off) = offscreen() else { return };
+    // 2 x 2 texels: red, blue / blue, red
+    let rgba = [
+        220u8, 20, 20, 255, 20, 20, 220, 255, 20, 20, 220, 255, 220, 20, 20, 255,
+    ];
+    off.renderer
+        .set_pattern_image(&off.device, &off.queue, 2, 2, &rgba);
+    let scene = flat_square(4, |p| p * 3.0);
+    off.upload(&scene);
+    let cam = top_camera(&scene);
+    let settings = DisplaySettings {
+        mode: DisplayMode::Pattern,
+        pattern: Pattern::Image,
+        ..plain_settings()
+    };
+    let img = off.render(&cam, &settings, 256, 256);
+    save(&img, "square_image_pattern.png");
+    let reddish = img
+        .pixels()
+        .filter(|p| p[0] > 2 * p[2] && p[0] > 80)
+        .count();
+    let bluish = img
+        .pixels()
+        .filter(|p| p[2] > 2 * p[0] && p[2] > 80)
+        .count();
+    assert!(
+        reddish > 2000 && bluish > 2000,
+        "red {reddish}, blue {bluish}"
+    );
+}

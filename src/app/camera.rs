@@ -20,7 +20,7 @@ impl Default for OrbitCamera {
     fn default() -> Self {
         OrbitCamera {
             target: Vec3::ZERO,
-            yaw: 0.5,
+            yaw: 2.55,
             pitch: 0.35,
             distance: 3.0,
             fov_y: 35f32.to_radians(),

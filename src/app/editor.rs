@@ -49,6 +49,8 @@ pub struct EditorApp {
     /// Viewport size in physical pixels (last frame).
     viewport_px: [u32; 2],
     has_wgpu: bool,
+    /// Decoded RGBA image waiting to be uploaded as the image pattern.
+    pending_pattern_image: Option<image::RgbaImage>,
 }
 
 impl EditorApp {
@@ -82,6 +84,7 @@ impl EditorApp {
             fit_pending: true,
             viewport_px: [1, 1],
             has_wgpu,
+            pending_pattern_image: None,
         };
         let ctx = cc.egui_ctx.clone();
         match options.open {
@@ -255,6 +258,34 @@ impl EditorApp {
             .map_err(|e| format!("cannot write {}: {e}", path.display()))
     }
 
+    /// Loads a PNG/JPEG as the image pattern (uploaded on the next frame).
+    pub fn load_pattern_image(&mut self, path: &Path) -> Result<(), String> {
+        let img = image::open(path)
+            .map_err(|e| format!("cannot read image {}: {e}", path.display()))?
+            .to_rgba8();
+        self.pending_pattern_image = Some(img);
+        self.document.display.pattern = Pattern::Image;
+        Ok(())
+    }
+
+    fn upload_pending_image(&mut self, frame: &eframe::Frame) {
+        let Some(img) = self.pending_pattern_image.take() else {
+            return;
+        };
+        if let Some(rs) = frame.wgpu_render_state() {
+            let mut r = rs.renderer.write();
+            if let Some(res) = r.callback_resources.get_mut::<ViewportResources>() {
+                res.renderer.set_pattern_image(
+                    &rs.device,
+                    &rs.queue,
+                    img.width(),
+                    img.height(),
+                    img.as_raw(),
+                );
+            }
+        }
+    }
+
     fn menu_bar(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         egui::MenuBar::new().ui(ui, |ui| {
             ui.menu_button("File", |ui| {
@@ -282,16 +313,33 @@ impl EditorApp {
                         ui.close();
                     }
                 });
+                if ui.button("Load pattern image…").clicked() {
+                    if let Some(p) = rfd::FileDialog::new()
+                        .add_filter("Images", &["png", "jpg", "jpeg"])
+                        .pick_file()
+                        && let Err(e) = self.load_pattern_image(&p)
+                    {
+                        self.error = Some(e);
+                    }
+                    ui.close();
+                }
                 if ui.button("Open default mesh (Spot)").clicked() {
                     self.open_default(Some(ui.ctx().clone()));
                     ui.close();
                 }
                 ui.separator();
                 let has_param = self.document.has_param();
-                ui.add_enabled(has_param, egui::Button::new("Export OBJ with UVs…"))
-                    .on_disabled_hover_text("Needs a parameterization (not implemented yet)");
-                ui.add_enabled(has_param, egui::Button::new("Export quad mesh…"))
-                    .on_disabled_hover_text("Needs a parameterization (not implemented yet)");
+                // Stubs: enabled once a parameterization exists, writers come later.
+                for label in ["Export OBJ with UVs…", "Export quad mesh…"] {
+                    if ui
+                        .add_enabled(has_param, egui::Button::new(label))
+                        .on_disabled_hover_text("Needs a parameterization")
+                        .clicked()
+                    {
+                        self.status = format!("{label} is not implemented yet");
+                        ui.close();
+                    }
+                }
                 if ui.button("Screenshot to PNG…").clicked() {
                     if let Some(p) = rfd::FileDialog::new()
                         .add_filter("PNG", &["png"])
@@ -302,6 +350,14 @@ impl EditorApp {
                             Ok(()) => self.status = format!("Saved {}", p.display()),
                             Err(e) => self.error = Some(e),
                         }
+                    }
+                    ui.close();
+                }
+                if ui.button("Quick screenshot (current folder)").clicked() {
+                    let p = quick_screenshot_path();
+                    match self.screenshot(frame, &p) {
+                        Ok(()) => self.status = format!("Saved {}", p.display()),
+                        Err(e) => self.error = Some(e),
                     }
                     ui.close();
                 }
@@ -351,7 +407,7 @@ impl EditorApp {
             }
             if !self.document.warnings.is_empty() {
                 egui::CollapsingHeader::new(format!(
-                    "⚠ {} warning(s)",
+                    "Validation warnings ({})",
                     self.document.warnings.len()
                 ))
                 .default_open(true)
@@ -551,6 +607,14 @@ impl EditorApp {
     }
 }
 
+/// `quadcover-screenshot-N.png` in the current folder, N the first free number.
+fn quick_screenshot_path() -> PathBuf {
+    (1..)
+        .map(|n| PathBuf::from(format!("quadcover-screenshot-{n}.png")))
+        .find(|p| !p.exists())
+        .unwrap_or_else(|| PathBuf::from("quadcover-screenshot.png"))
+}
+
 /// Colored dots for the singularity indices k/N, k = -N..N (k != 0).
 fn legend(ui: &mut egui::Ui, n: u32) {
     ui.horizontal_wrapped(|ui| {
@@ -569,6 +633,7 @@ fn legend(ui: &mut egui::Ui, n: u32) {
 impl eframe::App for EditorApp {
     fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         self.poll_jobs();
+        self.upload_pending_image(frame);
         if self.fit_pending && self.document.scene().is_some() {
             self.fit();
             self.fit_pending = false;

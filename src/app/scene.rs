@@ -227,7 +227,7 @@ mod tests {
         // all distinct for k/N with small k
         let mut seen: Vec<[f32; 4]> = Vec::new();
         for n in [2u32, 4, 6] {
-            for k in -3..=3 {
+            for k in -3i32..=3 {
                 if k == 0 {
                     continue;
                 }
