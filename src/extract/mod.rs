@@ -1,0 +1,226 @@
+//! Remeshing from a seamless parameterization: quad (N = 4), triangle (N = 6, plus the hexagon
+//! dual) and stripe (N = 2) extraction, and the thesis's quality measures (sec. 5.2).
+//!
+//! Design (QEx-style, Ebke et al. 2013):
+//! - Per-corner UVs are mapped to *lattice coordinates* where the grid is Z² and the rotation by
+//!   2π/N is an integer matrix (N = 6: `a = u − v/√3, b = 2v/√3`, so G6 becomes Z²). Coordinates
+//!   within `snap_tolerance` of an integer are snapped, which absorbs float noise of other tools.
+//! - Transitions per interior halfedge are derived from the UVs: best rotation, then the
+//!   translation rounded to the lattice.
+//! - Grid points are owned by exactly one mesh element: a vertex (lattice point exactly at a
+//!   vertex), the interior of an edge, or the interior of a face.
+//! - From each grid point the lattice directions that start into the surface are traced across
+//!   triangles (applying transitions) to the next grid point, or to where the iso-line leaves the
+//!   surface (a boundary crossing, which becomes an output vertex). Degenerate incidences (an
+//!   iso-line through a mesh vertex) are resolved by a symbolic perturbation of the vertex that is
+//!   the same physical displacement in every chart, so neighbouring faces always agree.
+//! - Faces are closed by walking the rotation system (next edge = clockwise-next slot at the end
+//!   point); boundary points get extra slots along the input boundary.
+
+mod lattice;
+mod quality;
+mod stripes;
+mod trace;
+
+use glam::DVec3;
+use thiserror::Error;
+
+pub use quality::{RemeshQuality, quality, remesh_report};
+
+use crate::mesh::TriMesh;
+
+/// Options of [`extract`].
+#[derive(Clone, Debug)]
+pub struct ExtractOptions {
+    /// Lattice coordinates within this distance of an integer are snapped to it.
+    pub snap_tolerance: f64,
+    /// Longest face (in sides) accepted when closing faces; longer cycles are dropped as patched.
+    pub max_face_sides: usize,
+    /// Split every non-quad polygon of a quad extraction into quads (1:4 style midpoint split).
+    pub split_to_quads: bool,
+}
+
+impl Default for ExtractOptions {
+    fn default() -> Self {
+        ExtractOptions {
+            snap_tolerance: 1e-4,
+            max_face_sides: 32,
+            split_to_quads: false,
+        }
+    }
+}
+
+/// An extracted polygon mesh (or stripes, as polylines).
+#[derive(Clone, Debug, Default)]
+pub struct Remesh {
+    pub positions: Vec<DVec3>,
+    /// Polygons, counter-clockwise as seen from the input's normal side.
+    pub faces: Vec<Vec<u32>>,
+    /// Iso-lines (stripes, N = 2).
+    pub polylines: Vec<Vec<u32>>,
+    /// Places where the input needed local patching (flipped / degenerate triangles, traces
+    /// that could not be matched, dropped faces).
+    pub patched_places: usize,
+}
+
+/// Why extraction failed.
+#[derive(Debug, Error)]
+pub enum ExtractError {
+    #[error("symmetry must be 2, 4 or 6, got {0}")]
+    Symmetry(u8),
+    #[error("expected {expected} per-corner UVs (3 per triangle), got {got}")]
+    UvCount { expected: usize, got: usize },
+    #[error("UV of corner {0} is not finite")]
+    NonFinite(usize),
+    #[error(
+        "the UVs are not seamless: across {bad} of {total} interior edges the two triangles' UVs \
+         do not differ by a rotation by a multiple of 2π/N and a lattice translation (worst \
+         mismatch {worst:.3e} lattice units)"
+    )]
+    NotSeamless {
+        bad: usize,
+        total: usize,
+        worst: f64,
+    },
+    #[error("the parameterization covers no grid point: scale the UVs up")]
+    Empty,
+}
+
+/// Extracts a quad (N = 4), triangle (N = 6) or stripe (N = 2) mesh from per-corner UVs
+/// (`uv[3 * f + k]`) of a seamless parameterization.
+pub fn extract(
+    mesh: &TriMesh,
+    uv: &[[f64; 2]],
+    symmetry: u8,
+    opts: &ExtractOptions,
+) -> Result<Remesh, ExtractError> {
+    if !matches!(symmetry, 2 | 4 | 6) {
+        return Err(ExtractError::Symmetry(symmetry));
+    }
+    if uv.len() != 3 * mesh.n_faces() {
+        return Err(ExtractError::UvCount {
+            expected: 3 * mesh.n_faces(),
+            got: uv.len(),
+        });
+    }
+    if let Some(c) = uv
+        .iter()
+        .position(|p| !p[0].is_finite() || !p[1].is_finite())
+    {
+        return Err(ExtractError::NonFinite(c));
+    }
+    let param = lattice::Param::new(mesh, uv, symmetry, opts.snap_tolerance)?;
+    let mut out = if symmetry == 2 {
+        stripes::extract_stripes(&param)
+    } else {
+        trace::extract_grid(&param, opts)
+    };
+    if out.positions.is_empty() {
+        return Err(ExtractError::Empty);
+    }
+    if symmetry == 4 && opts.split_to_quads {
+        out = split_to_quads(&out);
+    }
+    Ok(out)
+}
+
+/// The dual of a polygon mesh: one vertex per face (its centroid), one face per interior vertex.
+/// Applied to a triangle extraction (N = 6) it gives the hexagon mesh.
+pub fn dual(remesh: &Remesh) -> Remesh {
+    use std::collections::HashMap;
+    let mut he: HashMap<(u32, u32), usize> = HashMap::new();
+    for (f, face) in remesh.faces.iter().enumerate() {
+        for k in 0..face.len() {
+            he.insert((face[k], face[(k + 1) % face.len()]), f);
+        }
+    }
+    let positions: Vec<DVec3> = remesh
+        .faces
+        .iter()
+        .map(|f| {
+            f.iter()
+                .map(|&v| remesh.positions[v as usize])
+                .sum::<DVec3>()
+                / f.len() as f64
+        })
+        .collect();
+    let mut done = vec![false; remesh.positions.len()];
+    let mut faces = Vec::new();
+    for (f0, face) in remesh.faces.iter().enumerate() {
+        for k in 0..face.len() {
+            let v = face[k];
+            if done[v as usize] {
+                continue;
+            }
+            done[v as usize] = true;
+            // Walk counter-clockwise around v: from face f with corner v, the next face contains
+            // the twin of the edge (prev, v), i.e. the directed edge (v, prev).
+            let mut ring = vec![f0 as u32];
+            let mut f = f0;
+            let mut closed = false;
+            for _ in 0..64 {
+                let fc = &remesh.faces[f];
+                let i = fc.iter().position(|&x| x == v).unwrap_or(0);
+                let prev = fc[(i + fc.len() - 1) % fc.len()];
+                match he.get(&(v, prev)) {
+                    Some(&g) if g == f0 => {
+                        closed = true;
+                        break;
+                    }
+                    Some(&g) => {
+                        ring.push(g as u32);
+                        f = g;
+                    }
+                    None => break,
+                }
+            }
+            if closed && ring.len() >= 3 {
+                faces.push(ring);
+            }
+        }
+    }
+    Remesh {
+        positions,
+        faces,
+        polylines: Vec::new(),
+        patched_places: remesh.patched_places,
+    }
+}
+
+/// Splits every face with a number of sides other than 4 into quads: edge midpoints, the face
+/// centroid, one quad per corner. Quads are split too, so that edges stay conforming.
+pub fn split_to_quads(remesh: &Remesh) -> Remesh {
+    use std::collections::HashMap;
+    let mut positions = remesh.positions.clone();
+    let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut faces = Vec::new();
+    for face in &remesh.faces {
+        let n = face.len();
+        let c = face
+            .iter()
+            .map(|&v| remesh.positions[v as usize])
+            .sum::<DVec3>()
+            / n as f64;
+        let ci = positions.len() as u32;
+        positions.push(c);
+        let mut mids = Vec::with_capacity(n);
+        for k in 0..n {
+            let (a, b) = (face[k], face[(k + 1) % n]);
+            let key = (a.min(b), a.max(b));
+            let m = *mid.entry(key).or_insert_with(|| {
+                positions.push(0.5 * (remesh.positions[a as usize] + remesh.positions[b as usize]));
+                positions.len() as u32 - 1
+            });
+            mids.push(m);
+        }
+        for k in 0..n {
+            faces.push(vec![face[k], mids[k], ci, mids[(k + n - 1) % n]]);
+        }
+    }
+    Remesh {
+        positions,
+        faces,
+        polylines: remesh.polylines.clone(),
+        patched_places: remesh.patched_places,
+    }
+}
