@@ -7,7 +7,9 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::{Args, ValueEnum};
+use indicatif::ProgressBar;
 use serde::Serialize;
+use std::io::Write;
 
 use super::CliError;
 use crate::field::{self, Density, FieldParams, Symmetry};
@@ -95,10 +97,33 @@ struct Report {
     timings_ms: TimingsOut,
 }
 
-fn progress(stage: &str, t: Instant) -> f64 {
-    let ms = t.elapsed().as_secs_f64() * 1e3;
-    eprintln!("  {stage:<10} {ms:9.1} ms");
-    ms
+/// Per-stage progress on stderr: a spinner naming the running stage on terminals (indicatif
+/// draws nothing when stderr is not a terminal), and one plain line per finished stage always.
+struct Progress(ProgressBar);
+
+impl Progress {
+    fn new() -> Progress {
+        let bar = ProgressBar::new_spinner();
+        bar.enable_steady_tick(std::time::Duration::from_millis(120));
+        Progress(bar)
+    }
+    fn start(&self, stage: &str) {
+        self.0.set_message(format!("{stage} ..."));
+    }
+    fn line(&self, text: String) {
+        self.0.suspend(|| eprintln!("{text}"));
+    }
+    fn done(&self, stage: &str, t: Instant) -> f64 {
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        self.line(format!("  {stage:<10} {ms:9.1} ms"));
+        ms
+    }
+}
+
+impl Drop for Progress {
+    fn drop(&mut self) {
+        self.0.finish_and_clear();
+    }
 }
 
 pub fn run(args: &SolveArgs) -> Result<(), CliError> {
@@ -118,11 +143,13 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         return Err("--pure-quad needs --symmetry 2 or 4".into());
     }
     eprintln!("quadcover solve {} (N = {n})", args.mesh.display());
+    let bar = Progress::new();
+    bar.start("load");
     let t = Instant::now();
     let soup = io::read_mesh(&args.mesh)?;
     let (mesh, repair) =
         TriMesh::from_soup(&soup).map_err(|e| format!("{}: {e}", args.mesh.display()))?;
-    progress("load", t);
+    bar.done("load", t);
     let density = match (args.scale, args.target_vertices) {
         (Some(s), _) => Some(Density::EdgeLength(s)),
         (None, Some(v)) => Some(Density::TargetVertices(v)),
@@ -163,7 +190,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                     x[1] *= k;
                 }
             }
-            timings.smooth = progress("field", t);
+            timings.smooth = bar.done("field", t);
             f
         }
         None => {
@@ -180,7 +207,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             if let Some(d) = density {
                 params.density = d;
             }
-            let t = Instant::now();
+            bar.start("frame field");
             let fr = field::compute_field(&mesh, &params)?;
             for (name, secs) in &fr.timings {
                 if name.contains("curvature") {
@@ -189,9 +216,11 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                     timings.smooth += secs * 1e3;
                 }
             }
-            eprintln!("  {:<10} {:9.1} ms", "curvature", timings.curvature);
-            eprintln!("  {:<10} {:9.1} ms", "smooth", timings.smooth);
-            let _ = t;
+            bar.line(format!(
+                "  {:<10} {:9.1} ms",
+                "curvature", timings.curvature
+            ));
+            bar.line(format!("  {:<10} {:9.1} ms", "smooth", timings.smooth));
             fr.field
         }
     };
@@ -202,16 +231,18 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         },
         pure_quad: args.pure_quad,
     };
+    bar.start("QuadCover: cut graph, local and global step");
     let qc = param::QuadCover::new(&mesh, n, &field.matchings, opts)?;
     let p = qc.solve(&mesh, &field.frames)?;
     timings.cut = p.timings.cut_ms;
     timings.local = p.timings.local_ms;
     timings.global = p.timings.global_ms;
-    eprintln!("  {:<10} {:9.1} ms", "cut", timings.cut);
-    eprintln!("  {:<10} {:9.1} ms", "local", timings.local);
-    eprintln!("  {:<10} {:9.1} ms", "global", timings.global);
+    bar.line(format!("  {:<10} {:9.1} ms", "cut", timings.cut));
+    bar.line(format!("  {:<10} {:9.1} ms", "local", timings.local));
+    bar.line(format!("  {:<10} {:9.1} ms", "global", timings.global));
 
     // Back to the file's vertex and face order.
+    bar.start("write");
     let t = Instant::now();
     let mut mesh_face_of_tri = vec![usize::MAX; soup.triangles.len()];
     for (f, &t) in repair.original_face.iter().enumerate() {
@@ -251,10 +282,10 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         &args.out,
         &io::write::ObjOutput::new(&soup.positions, &soup.triangles).with_uvs(&corner_uvs),
     )?;
-    progress("write", t);
+    bar.done("write", t);
     timings.total = total.elapsed().as_secs_f64() * 1e3;
     let topo = mesh.topology();
-    eprintln!(
+    bar.line(format!(
         "  {} singularities, {} cut paths, {} flipped faces, seam error {:.1e}, conformal distortion {:.3} (p99 {:.3})",
         p.singularities.len(),
         p.cut_paths.len(),
@@ -262,7 +293,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         p.seam_max_error,
         p.conformal_distortion.mean,
         p.conformal_distortion.p99
-    );
+    ));
     if let Some(path) = &args.report {
         let report = Report {
             vertices: soup.positions.len(),
@@ -288,8 +319,8 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             area_distortion: p.area_distortion,
             timings_ms: timings,
         };
-        std::fs::write(path, serde_json::to_string_pretty(&report)?)
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+        let json = serde_json::to_string_pretty(&report)?;
+        io::write::write_atomic(path, |w| w.write_all(json.as_bytes()))?;
     }
     Ok(())
 }
