@@ -96,12 +96,25 @@ fn switches_display_mode_pattern_and_shading() {
     );
     settle(&mut h);
 
-    // demo parameterization (background job) switches to the pattern mode
-    h.get_by_label("Parameterization").click();
+    // the real solvers, as background jobs: field, then QuadCover
+    h.get_by_label("Compute field").click();
     h.step();
     settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    assert!(h.state().document.frame_field.is_some());
+    assert_eq!(h.state().document.display.mode, DisplayMode::Field);
+    h.get_by_label_contains("Field: N = 4");
+    save_render(&mut h, "ui_kitten_field.png");
+
+    h.get_by_label("Parameterize").click();
+    h.step();
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
     assert!(h.state().document.has_param());
     assert_eq!(h.state().document.display.mode, DisplayMode::Pattern);
+    assert_eq!(h.state().document.display.pattern, Pattern::QuadGrid);
+    h.get_by_label_contains("Parameterization: ");
+    save_render(&mut h, "ui_kitten_quads.png");
 
     h.get_by_label("Shaded").click();
     h.run_steps(2);
@@ -113,24 +126,24 @@ fn switches_display_mode_pattern_and_shading() {
     // pattern combo box
     h.get_by_label("Pattern").click();
     h.run_steps(2);
-    h.get_by_label("Hexagons (G6)").click();
+    h.get_by_label("Octagon-square (4.8.8)").click();
     h.run_steps(2);
-    assert_eq!(h.state().document.display.pattern, Pattern::Hexagons);
+    assert_eq!(h.state().document.display.pattern, Pattern::OctagonSquare);
 
     h.get_by_label("Flat").click();
     h.get_by_label("Wireframe").click();
     h.run_steps(2);
     assert_eq!(h.state().document.display.shading, Shading::Flat);
     assert!(h.state().document.display.wireframe);
-    save_render(&mut h, "ui_kitten_hexagons.png");
+    save_render(&mut h, "ui_kitten_octagons.png");
 
-    // demo field switches to the LIC
-    h.get_by_label("Field").click();
+    // the synthetic demo field still works and switches to the LIC
+    h.get_by_label("Demo (synthetic data)").click();
+    h.run_steps(2);
+    h.get_by_label("Synthetic field").click();
     h.step();
     settle(&mut h);
-    assert!(h.state().document.field.is_some());
     assert_eq!(h.state().document.display.mode, DisplayMode::Field);
-    save_render(&mut h, "ui_kitten_field.png");
 }
 
 #[test]

@@ -26,8 +26,7 @@ pub struct Singularity {
     pub index: i32,
 }
 
-/// A field in display form. Build it from a `quadcover::field::FrameField` as
-/// `FieldDisplay { symmetry: N, face_dirs: frames.iter().map(|f| f[0]).collect(), singularities }`.
+/// A field in display form (see [`FieldDisplay::from_frame_field`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FieldDisplay {
     /// N (2, 4 or 6).
@@ -35,6 +34,24 @@ pub struct FieldDisplay {
     /// One tangent direction per face (any representative of the N directions).
     pub face_dirs: Vec<DVec3>,
     pub singularities: Vec<Singularity>,
+}
+
+impl FieldDisplay {
+    /// Display form of a core frame field: U of each face, singularities `(vertex, k)` with
+    /// index k/N.
+    pub fn from_frame_field(
+        field: &crate::field::FrameField,
+        singularities: impl IntoIterator<Item = (usize, i32)>,
+    ) -> FieldDisplay {
+        FieldDisplay {
+            symmetry: field.symmetry.n(),
+            face_dirs: field.frames.iter().map(|f| f[0]).collect(),
+            singularities: singularities
+                .into_iter()
+                .map(|(vertex, index)| Singularity { vertex, index })
+                .collect(),
+        }
+    }
 }
 
 /// A parameterization result: per-corner UVs indexed `3*f + k`.
@@ -146,6 +163,13 @@ pub struct Document {
     pub warnings: Vec<String>,
     pub field: Option<FieldDisplay>,
     pub param: Option<ParamDisplay>,
+    /// The core field the display form came from (input of the parameterization).
+    pub frame_field: Option<crate::field::FrameField>,
+    /// The core parameterization result.
+    pub parameterization: Option<crate::param::Parameterization>,
+    /// One-line summaries of the field / parameterization results.
+    pub field_summary: String,
+    pub param_summary: String,
     pub lines: Vec<(LineKind, Vec<[DVec3; 2]>)>,
     pub display: DisplaySettings,
     scene: Option<Arc<SceneData>>,
@@ -164,6 +188,10 @@ impl Default for Document {
             warnings: Vec::new(),
             field: None,
             param: None,
+            frame_field: None,
+            parameterization: None,
+            field_summary: String::new(),
+            param_summary: String::new(),
             lines: Vec::new(),
             display: DisplaySettings::default(),
             scene: None,
@@ -183,6 +211,10 @@ impl Document {
         self.warnings = loaded.warnings;
         self.field = None;
         self.param = None;
+        self.frame_field = None;
+        self.parameterization = None;
+        self.field_summary.clear();
+        self.param_summary.clear();
         self.lines.clear();
         self.base = Some(loaded.scene);
         self.rebuild_scene();
@@ -192,6 +224,50 @@ impl Document {
     pub fn set_field(&mut self, field: Option<FieldDisplay>) {
         self.field = field;
         self.rebuild_scene();
+    }
+
+    /// Takes a computed core field: drops the old parameterization and cut graph.
+    pub fn set_frame_field(&mut self, result: crate::field::FieldResult) {
+        let sing = result.indices.singularities.iter().map(|s| (s.vertex, s.k));
+        let display = FieldDisplay::from_frame_field(&result.field, sing);
+        self.field_summary = format!(
+            "N = {}, {} singularities, E_smooth {:.3e}",
+            display.symmetry,
+            display.singularities.len(),
+            result.e_smooth
+        );
+        self.frame_field = Some(result.field);
+        self.parameterization = None;
+        self.param = None;
+        self.param_summary.clear();
+        self.lines.retain(|(k, _)| *k != LineKind::CutGraph);
+        self.set_field(Some(display));
+    }
+
+    /// Takes a computed parameterization: UVs, cut graph overlay, summary.
+    pub fn set_parameterization(&mut self, p: crate::param::Parameterization) {
+        let mut segs = Vec::new();
+        if let Some(mesh) = &self.mesh {
+            for path in &p.cut_paths {
+                for w in path.windows(2) {
+                    if w[0] < mesh.n_vertices() && w[1] < mesh.n_vertices() {
+                        segs.push([mesh.position(w[0]), mesh.position(w[1])]);
+                    }
+                }
+            }
+        }
+        self.param_summary = format!(
+            "{} cut paths, {} flipped faces, seam error {:.1e}, conformal distortion {:.3}",
+            p.cut_paths.len(),
+            p.flipped_faces,
+            p.seam_max_error,
+            p.conformal_distortion.mean
+        );
+        self.param = Some(ParamDisplay {
+            corner_uvs: p.uv.clone(),
+        });
+        self.parameterization = Some(p);
+        self.set_lines(LineKind::CutGraph, segs);
     }
 
     /// Sets (or clears) the parameterization.

@@ -51,6 +51,8 @@ pub struct EditorApp {
     has_wgpu: bool,
     /// Decoded RGBA image waiting to be uploaded as the image pattern.
     pending_pattern_image: Option<image::RgbaImage>,
+    /// Symmetry chosen for the next field computation.
+    pub symmetry: u32,
 }
 
 impl EditorApp {
@@ -85,6 +87,7 @@ impl EditorApp {
             viewport_px: [1, 1],
             has_wgpu,
             pending_pattern_image: None,
+            symmetry: 4,
         };
         let ctx = cc.egui_ctx.clone();
         match options.open {
@@ -174,6 +177,45 @@ impl EditorApp {
             }));
     }
 
+    /// Computes a frame field of symmetry `n` (2, 4 or 6) in the background.
+    pub fn start_field(&mut self, ctx: Option<egui::Context>, n: u32) {
+        let Some(mesh) = self.document.mesh.clone() else {
+            return;
+        };
+        self.jobs
+            .push(Job::spawn(format!("Computing {n}-field"), ctx, move |_| {
+                let symmetry = crate::field::Symmetry::from_n(n).map_err(|e| e.to_string())?;
+                let params = crate::field::FieldParams {
+                    symmetry,
+                    ..Default::default()
+                };
+                crate::field::compute_field(&mesh, &params)
+                    .map(|r| JobOutput::FieldComputed(Box::new(r)))
+                    .map_err(|e| e.to_string())
+            }));
+    }
+
+    /// Runs QuadCover on the current field in the background.
+    pub fn start_parameterize(&mut self, ctx: Option<egui::Context>) {
+        let (Some(mesh), Some(field)) = (
+            self.document.mesh.clone(),
+            self.document.frame_field.clone(),
+        ) else {
+            return;
+        };
+        self.jobs
+            .push(Job::spawn("Parameterizing (QuadCover)", ctx, move |_| {
+                let fref = crate::param::FieldRef {
+                    symmetry: field.symmetry.n() as usize,
+                    frames: &field.frames,
+                    matchings: &field.matchings,
+                };
+                crate::param::parameterize(&mesh, fref, &crate::param::ParamOptions::default())
+                    .map(|p| JobOutput::Parameterized(Box::new(p)))
+                    .map_err(|e| e.to_string())
+            }));
+    }
+
     /// Takes finished jobs' results into the document.
     pub fn poll_jobs(&mut self) {
         let mut i = 0;
@@ -207,6 +249,33 @@ impl EditorApp {
                     self.document.set_param(Some(p));
                     self.document.display.mode = DisplayMode::Pattern;
                     self.status = format!("{} done", job.name);
+                }
+                Ok(JobOutput::FieldComputed(r)) => {
+                    self.document.set_frame_field(*r);
+                    self.document.display.mode = DisplayMode::Field;
+                    self.status = format!(
+                        "{} done in {:.2} s",
+                        job.name,
+                        job.started.elapsed().as_secs_f32()
+                    );
+                }
+                Ok(JobOutput::Parameterized(p)) => {
+                    let n = p.symmetry as u32;
+                    self.document.set_parameterization(*p);
+                    let d = &mut self.document.display;
+                    d.mode = DisplayMode::Pattern;
+                    if !d.pattern.fits_symmetry(n) || d.pattern == Pattern::None {
+                        d.pattern = match n {
+                            2 => Pattern::Stripes,
+                            6 => Pattern::Hexagons,
+                            _ => Pattern::QuadGrid,
+                        };
+                    }
+                    self.status = format!(
+                        "{} done in {:.2} s",
+                        job.name,
+                        job.started.elapsed().as_secs_f32()
+                    );
                 }
                 Err(e) => {
                     self.status = format!("{} failed", job.name);
@@ -479,22 +548,56 @@ impl EditorApp {
             legend(ui, n);
 
             ui.separator();
-            ui.heading("Demo (synthetic data)");
+            ui.heading("Solve");
+            let has_mesh = self.document.mesh.is_some();
+            let idle = self.jobs.is_empty();
             ui.horizontal(|ui| {
-                let enabled = self.document.mesh.is_some();
-                if ui
-                    .add_enabled(enabled, egui::Button::new("Field"))
-                    .clicked()
-                {
-                    self.start_demo_field(Some(ui.ctx().clone()), 4);
-                }
-                if ui
-                    .add_enabled(enabled, egui::Button::new("Parameterization"))
-                    .clicked()
-                {
-                    self.start_demo_param(Some(ui.ctx().clone()));
+                ui.label("Symmetry N");
+                for n in [2u32, 4, 6] {
+                    ui.selectable_value(&mut self.symmetry, n, n.to_string());
                 }
             });
+            ui.horizontal(|ui| {
+                if ui
+                    .add_enabled(has_mesh && idle, egui::Button::new("Compute field"))
+                    .clicked()
+                {
+                    let n = self.symmetry;
+                    self.start_field(Some(ui.ctx().clone()), n);
+                }
+                let has_field = self.document.frame_field.is_some();
+                if ui
+                    .add_enabled(has_field && idle, egui::Button::new("Parameterize"))
+                    .on_disabled_hover_text("Compute a field first")
+                    .clicked()
+                {
+                    self.start_parameterize(Some(ui.ctx().clone()));
+                }
+            });
+            if !self.document.field_summary.is_empty() {
+                ui.label(format!("Field: {}", self.document.field_summary));
+            }
+            if !self.document.param_summary.is_empty() {
+                ui.label(format!("Parameterization: {}", self.document.param_summary));
+            }
+            egui::CollapsingHeader::new("Demo (synthetic data)")
+                .default_open(false)
+                .show(ui, |ui| {
+                    ui.horizontal(|ui| {
+                        if ui
+                            .add_enabled(has_mesh, egui::Button::new("Synthetic field"))
+                            .clicked()
+                        {
+                            self.start_demo_field(Some(ui.ctx().clone()), 4);
+                        }
+                        if ui
+                            .add_enabled(has_mesh, egui::Button::new("Synthetic UVs"))
+                            .clicked()
+                        {
+                            self.start_demo_param(Some(ui.ctx().clone()));
+                        }
+                    });
+                });
 
             ui.separator();
             ui.heading("Jobs");

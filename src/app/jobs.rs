@@ -13,6 +13,10 @@ pub enum JobOutput {
     Loaded(Box<LoadedDocument>),
     Field(FieldDisplay),
     Param(ParamDisplay),
+    /// A field from `quadcover::field::compute_field`.
+    FieldComputed(Box<crate::field::FieldResult>),
+    /// A parameterization from `quadcover::param::parameterize`.
+    Parameterized(Box<crate::param::Parameterization>),
 }
 
 /// Shared progress of a running job: a fraction in [0, 1] (or unknown) and a
