@@ -1,7 +1,6 @@
 //! Remeshing from seamless parameterizations (issue #5).
 
 use std::collections::HashMap;
-use std::f64::consts::TAU;
 
 use quadcover::extract::{ExtractOptions, Remesh, dual, extract, quality};
 use quadcover::mesh::TriMesh;
@@ -58,5 +57,168 @@ fn flat_grid_regular() {
         }
         assert_eq!(q.irregular_vertices, 0);
         assert_eq!(euler(&r), 1);
+    }
+}
+
+fn torus_uvs(mesh: &TriMesh, nu: usize, nv: usize, a: f64, b: f64) -> Vec<[f64; 2]> {
+    let mut uv = Vec::new();
+    for (f, t) in mesh.faces().iter().enumerate() {
+        let q = f / 2;
+        let (i, j) = (q % nu, q / nu);
+        for &v in t {
+            let (iv, jv) = (v as usize % nu, v as usize / nu);
+            let iu = if iv < i { iv + nu } else { iv };
+            let ju = if jv < j { jv + nv } else { jv };
+            uv.push([a * iu as f64 / nu as f64, b * ju as f64 / nv as f64]);
+        }
+    }
+    uv
+}
+
+#[test]
+fn torus_regular_grid() {
+    let (nu, nv) = (40, 20);
+    let mesh = generate::torus(2.0, 0.7, nu, nv);
+    for (a, b) in [(8.0, 4.0), (12.0, 5.0), (7.0, 3.0)] {
+        let uv = torus_uvs(&mesh, nu, nv, a, b);
+        let r = extract(&mesh, &uv, 4, &ExtractOptions::default()).unwrap();
+        assert_manifold(&r);
+        let q = quality(&r, &mesh);
+        println!("torus {a}x{b}\n{q}");
+        assert_eq!(r.faces.len(), (a * b) as usize);
+        assert_eq!(r.positions.len(), (a * b) as usize);
+        assert_eq!(q.faces_by_sides.get(&4), Some(&((a * b) as usize)));
+        assert_eq!(q.irregular_vertices, 0);
+        assert_eq!(q.boundary_vertices, 0);
+        assert_eq!(euler(&r), 0, "genus 1");
+        assert_eq!(r.patched_places, 0);
+    }
+}
+
+#[test]
+fn noise_gives_same_result() {
+    let mesh = generate::grid(10, 10, 1.0, 1.0);
+    for s in [5.0, 10.0] {
+        let clean = vertex_uvs(&mesh, |p| [s * p.x, s * p.y]);
+        let mut seed = 12345u64;
+        let noisy: Vec<[f64; 2]> = clean
+            .iter()
+            .map(|p| {
+                let mut rnd = || {
+                    seed = seed
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2e-6
+                };
+                [p[0] + rnd(), p[1] + rnd()]
+            })
+            .collect();
+        let a = extract(&mesh, &clean, 4, &ExtractOptions::default()).unwrap();
+        let b = extract(&mesh, &noisy, 4, &ExtractOptions::default()).unwrap();
+        assert_manifold(&b);
+        assert_eq!(a.positions.len(), b.positions.len());
+        assert_eq!(a.faces.len(), b.faces.len());
+        assert_eq!(quality(&b, &mesh).irregular_vertices, 0);
+        assert_eq!(b.patched_places, 0);
+    }
+}
+
+/// A flat square whose right half's chart is rotated by 90° and translated by an integer
+/// vector: a seamless parameterization with rotational transitions along the cut.
+#[test]
+fn rotated_transition() {
+    let mesh = generate::grid(12, 12, 1.0, 1.0);
+    for (s, rot) in [(4.0, 1), (6.0, 3), (4.8, 2), (6.0, 1)] {
+        let mut uv = Vec::new();
+        for (f, t) in mesh.faces().iter().enumerate() {
+            let c = mesh.face_centroid(f);
+            for &v in t {
+                let p = mesh.position(v as usize);
+                let (mut x, mut y) = (s * p.x, s * p.y);
+                if c.x > 0.5 {
+                    for _ in 0..rot {
+                        (x, y) = (-y, x);
+                    }
+                    x += 3.0;
+                    y -= 2.0;
+                }
+                uv.push([x, y]);
+            }
+        }
+        let plain = vertex_uvs(&mesh, |p| [s * p.x, s * p.y]);
+        let a = extract(&mesh, &plain, 4, &ExtractOptions::default()).unwrap();
+        let b = extract(&mesh, &uv, 4, &ExtractOptions::default()).unwrap();
+        assert_manifold(&b);
+        let q = quality(&b, &mesh);
+        println!("rotated s={s} rot={rot}\n{q}");
+        if s.fract() == 0.0 {
+            assert_eq!(a.positions.len(), b.positions.len());
+            assert_eq!(a.faces.len(), b.faces.len());
+            assert_eq!(q.faces_by_sides.len(), 1);
+        }
+        // (At s = 4.8 the input corners lie on iso-lines; the symbolic perturbation then
+        // depends on the charts, so counts may differ by a boundary vertex.)
+        assert_eq!(q.irregular_vertices, 0);
+        assert_eq!(euler(&b), 1);
+    }
+}
+
+#[test]
+fn triangles_and_hexagons() {
+    let mesh = generate::grid(16, 16, 1.0, 1.0);
+    for s in [6.0, 9.0] {
+        let uv = vertex_uvs(&mesh, |p| [s * p.x, s * p.y]);
+        let r = extract(&mesh, &uv, 6, &ExtractOptions::default()).unwrap();
+        assert_manifold(&r);
+        let q = quality(&r, &mesh);
+        println!("N=6 s={s}\n{q}");
+        assert_eq!(q.regular_valence, 6);
+        assert_eq!(q.irregular_vertices, 0);
+        assert!(q.faces_by_sides[&3] > 50);
+        assert_eq!(euler(&r), 1);
+        let h = dual(&r);
+        assert_manifold(&h);
+        let hq = quality(&h, &mesh);
+        println!("hex dual\n{hq}");
+        assert!(h.faces.iter().all(|f| f.len() == 6));
+        assert!(h.faces.len() > 20);
+    }
+}
+
+#[test]
+fn stripes() {
+    let mesh = generate::grid(10, 10, 1.0, 1.0);
+    let uv = vertex_uvs(&mesh, |p| [4.5 * p.x, 4.5 * p.y]);
+    let r = extract(&mesh, &uv, 2, &ExtractOptions::default()).unwrap();
+    assert!(r.faces.is_empty());
+    // Iso-lines u = 0..4 (u = 0 runs along the boundary and may be perturbed off it).
+    assert!(
+        r.polylines.len() >= 4 && r.polylines.len() <= 5,
+        "{}",
+        r.polylines.len()
+    );
+    for pl in &r.polylines {
+        let x = r.positions[pl[0] as usize].x;
+        assert!(
+            pl.iter()
+                .all(|&v| (r.positions[v as usize].x - x).abs() < 1e-9)
+        );
+    }
+}
+
+#[test]
+fn bad_input_is_an_error() {
+    let mesh = generate::grid(4, 4, 1.0, 1.0);
+    let uv = vertex_uvs(&mesh, |p| [p.x, p.y]);
+    assert!(extract(&mesh, &uv, 5, &ExtractOptions::default()).is_err());
+    assert!(extract(&mesh, &uv[1..], 4, &ExtractOptions::default()).is_err());
+    let mut nan = uv.clone();
+    nan[3][0] = f64::NAN;
+    assert!(extract(&mesh, &nan, 4, &ExtractOptions::default()).is_err());
+    let tiny = vertex_uvs(&mesh, |p| [0.1 + 0.3 * p.x, 0.1 + 0.3 * p.y]);
+    // No grid point: at most the boundary polygon through the input's corners.
+    match extract(&mesh, &tiny, 4, &ExtractOptions::default()) {
+        Ok(r) => assert!(r.faces.len() <= 1),
+        Err(e) => println!("{e}"),
     }
 }

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 pub mod bench;
+pub mod extract;
 mod info;
 pub mod solve;
 
@@ -28,6 +29,8 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Seamless QuadCover parameterization (N = 2, 4, 6): per-corner UVs to OBJ, JSON report.
     Solve(solve::SolveArgs),
+    /// Remesh a seamless parameterization (OBJ with per-corner UVs): quads, triangles, stripes.
+    Extract(extract::ExtractArgs),
 }
 
 /// Exit code for bad input (invalid mesh, unreadable file, bad arguments).
@@ -39,6 +42,7 @@ pub fn run(command: Command) -> ExitCode {
         Command::Info(args) => info::run(&args),
         Command::Bench(args) => bench::run(&args),
         Command::Solve(args) => solve::run(&args),
+        Command::Extract(args) => extract::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -6,6 +6,7 @@ use super::lattice::{Param, cross, dv, to_uv};
 use super::{ExtractOptions, Remesh};
 
 #[derive(Clone, Copy, Debug)]
+#[allow(dead_code)] // parameters kept for debugging output
 enum Owner {
     Vertex(usize),
     /// Edge point: its halfedge `h0` and parameter along it.
@@ -575,7 +576,7 @@ pub fn extract_grid(p: &Param, opts: &ExtractOptions) -> Remesh {
             }
             let mut cycle: Vec<u32> = Vec::new();
             let (mut cur, mut cs) = (id, s);
-            let mut ok;
+            let ok;
             let mut outside = false;
             loop {
                 if visited[starts[cur] + cs] {

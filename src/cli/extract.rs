@@ -1,0 +1,75 @@
+//! `quadcover extract UV.obj --symmetry 4|6|2 --out OUT.obj [--report R.json] [--dual]`:
+//! remeshing from a seamless parameterization given as an OBJ with per-corner UVs.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use super::CliError;
+use crate::extract::{ExtractOptions, dual, quality, remesh_report};
+use crate::io::{ObjOutput, read_obj_bytes, write_obj};
+use crate::mesh::TriMesh;
+
+#[derive(Debug, Args)]
+pub struct ExtractArgs {
+    /// OBJ file with per-corner texture coordinates (`f v/vt ...`).
+    pub mesh: PathBuf,
+    /// Symmetry of the parameterization: 4 (quads), 6 (triangles / hexagons), 2 (stripes).
+    #[arg(long, default_value_t = 4)]
+    pub symmetry: u8,
+    /// Output OBJ (polygons, or `l` polylines for stripes).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Write the quality report as JSON here too.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// For --symmetry 6: write the hexagon mesh (dual of the triangle mesh).
+    #[arg(long)]
+    pub dual: bool,
+    /// Split non-quads of a quad extraction into quads.
+    #[arg(long)]
+    pub pure_quad: bool,
+}
+
+pub fn run(args: &ExtractArgs) -> Result<(), CliError> {
+    let bytes = std::fs::read(&args.mesh)
+        .map_err(|e| format!("{}: cannot read: {e}", args.mesh.display()))?;
+    let data = read_obj_bytes(&bytes).map_err(|e| format!("{}: {e}", args.mesh.display()))?;
+    let Some(corner_uvs) = data.corner_uvs else {
+        return Err(format!(
+            "{}: no per-corner texture coordinates (every face corner needs a `vt` index)",
+            args.mesh.display()
+        )
+        .into());
+    };
+    let (mesh, repair) =
+        TriMesh::from_soup(&data.soup).map_err(|e| format!("{}: {e}", args.mesh.display()))?;
+    // Map the file's triangles to the mesh's faces (repairs may drop or re-orient triangles).
+    let mut uv = Vec::with_capacity(3 * mesh.n_faces());
+    for f in 0..mesh.n_faces() {
+        let t = repair.original_face[f] as usize;
+        let src = data.soup.triangles[t];
+        for &v in &mesh.faces()[f] {
+            let ov = repair.original_vertex[v as usize] as usize;
+            let k = src.iter().position(|&x| x as usize == ov).unwrap_or(0);
+            uv.push(corner_uvs[3 * t + k]);
+        }
+    }
+    let opts = ExtractOptions {
+        split_to_quads: args.pure_quad,
+        ..Default::default()
+    };
+    let (mut remesh, mut q) = remesh_report(&mesh, &uv, args.symmetry, &opts)?;
+    if args.dual && args.symmetry == 6 {
+        remesh = dual(&remesh);
+        q = quality(&remesh, &mesh);
+    }
+    let out = ObjOutput::new(&remesh.positions, &remesh.faces).with_polylines(&remesh.polylines);
+    write_obj(&args.out, &out).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    println!("{q}");
+    if let Some(path) = &args.report {
+        std::fs::write(path, serde_json::to_string_pretty(&q)?)
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    Ok(())
+}
