@@ -173,6 +173,7 @@ pub struct Document {
     pub lines: Vec<(LineKind, Vec<[DVec3; 2]>)>,
     pub display: DisplaySettings,
     scene: Option<Arc<SceneData>>,
+    generation: u64,
     /// Base scene without field/param/overlays (rebuilt from the mesh once per load).
     base: Option<SceneData>,
     revision: u64,
@@ -195,6 +196,7 @@ impl Default for Document {
             lines: Vec::new(),
             display: DisplaySettings::default(),
             scene: None,
+            generation: 0,
             base: None,
             revision: 1,
         }
@@ -204,6 +206,7 @@ impl Default for Document {
 impl Document {
     /// Replaces the mesh (drops field, parameterization and overlays).
     pub fn set_loaded(&mut self, loaded: LoadedDocument) {
+        self.generation += 1;
         self.path = loaded.path;
         self.name = loaded.name;
         self.mesh = Some(loaded.mesh);
@@ -287,6 +290,11 @@ impl Document {
 
     pub fn has_param(&self) -> bool {
         self.param.is_some()
+    }
+
+    /// Increases whenever a new mesh is loaded (jobs on an older mesh are stale).
+    pub fn generation(&self) -> u64 {
+        self.generation
     }
 
     /// Increases whenever the scene changes.

@@ -127,14 +127,15 @@ impl EditorApp {
             }));
     }
 
-    /// Demo until the field solver lands: a 4-field aligned with the projection
+    /// Synthetic demo: a 4-field aligned with the projection
     /// of the x axis (y where x is normal), computed in the background.
     pub fn start_demo_field(&mut self, ctx: Option<egui::Context>, symmetry: u32) {
         let Some(mesh) = self.document.mesh.clone() else {
             return;
         };
-        self.jobs
-            .push(Job::spawn("Synthetic field", ctx, move |progress| {
+        let generation = self.document.generation();
+        self.jobs.push(
+            Job::spawn("Synthetic field", ctx, move |progress| {
                 let n = mesh.n_faces();
                 let mut dirs = Vec::with_capacity(n);
                 for f in 0..n {
@@ -153,17 +154,20 @@ impl EditorApp {
                     face_dirs: dirs,
                     singularities: Vec::new(),
                 }))
-            }));
+            })
+            .for_generation(generation),
+        );
     }
 
-    /// Demo until the parameterization lands: planar projection UVs (x, y)
+    /// Synthetic demo: planar projection UVs (x, y)
     /// scaled so about 12 cells span the mesh.
     pub fn start_demo_param(&mut self, ctx: Option<egui::Context>) {
         let Some(mesh) = self.document.mesh.clone() else {
             return;
         };
-        self.jobs
-            .push(Job::spawn("Synthetic parameterization", ctx, move |_| {
+        let generation = self.document.generation();
+        self.jobs.push(
+            Job::spawn("Synthetic parameterization", ctx, move |_| {
                 let (lo, hi) = mesh.bounding_box();
                 let s = 12.0 / (hi - lo).max_element().max(1e-12);
                 let mut uvs = Vec::with_capacity(3 * mesh.n_faces());
@@ -174,7 +178,9 @@ impl EditorApp {
                     }
                 }
                 Ok(JobOutput::Param(ParamDisplay { corner_uvs: uvs }))
-            }));
+            })
+            .for_generation(generation),
+        );
     }
 
     /// Computes a frame field of symmetry `n` (2, 4 or 6) in the background.
@@ -182,8 +188,9 @@ impl EditorApp {
         let Some(mesh) = self.document.mesh.clone() else {
             return;
         };
-        self.jobs
-            .push(Job::spawn(format!("Computing {n}-field"), ctx, move |_| {
+        let generation = self.document.generation();
+        self.jobs.push(
+            Job::spawn(format!("Computing {n}-field"), ctx, move |_| {
                 let symmetry = crate::field::Symmetry::from_n(n).map_err(|e| e.to_string())?;
                 let params = crate::field::FieldParams {
                     symmetry,
@@ -192,7 +199,9 @@ impl EditorApp {
                 crate::field::compute_field(&mesh, &params)
                     .map(|r| JobOutput::FieldComputed(Box::new(r)))
                     .map_err(|e| e.to_string())
-            }));
+            })
+            .for_generation(generation),
+        );
     }
 
     /// Runs QuadCover on the current field in the background.
@@ -203,8 +212,9 @@ impl EditorApp {
         ) else {
             return;
         };
-        self.jobs
-            .push(Job::spawn("Parameterizing (QuadCover)", ctx, move |_| {
+        let generation = self.document.generation();
+        self.jobs.push(
+            Job::spawn("Parameterizing (QuadCover)", ctx, move |_| {
                 let fref = crate::param::FieldRef {
                     symmetry: field.symmetry.n() as usize,
                     frames: &field.frames,
@@ -213,7 +223,9 @@ impl EditorApp {
                 crate::param::parameterize(&mesh, fref, &crate::param::ParamOptions::default())
                     .map(|p| JobOutput::Parameterized(Box::new(p)))
                     .map_err(|e| e.to_string())
-            }));
+            })
+            .for_generation(generation),
+        );
     }
 
     /// Takes finished jobs' results into the document.
@@ -225,6 +237,13 @@ impl EditorApp {
                 continue;
             };
             let job = self.jobs.remove(i);
+            if job
+                .generation
+                .is_some_and(|g| g != self.document.generation())
+            {
+                self.status = format!("{}: discarded (the mesh changed)", job.name);
+                continue;
+            }
             match result {
                 Ok(JobOutput::Loaded(doc)) => {
                     let path = doc.path.clone();

@@ -49,6 +49,9 @@ impl Progress {
 /// A running job.
 pub struct Job {
     pub name: String,
+    /// Mesh generation the job works on (`None`: independent of the current mesh).
+    /// Results for an older generation are discarded.
+    pub generation: Option<u64>,
     pub started: Instant,
     pub progress: Arc<Progress>,
     rx: Receiver<Result<JobOutput, String>>,
@@ -88,10 +91,17 @@ impl Job {
         };
         Job {
             name,
+            generation: None,
             started: Instant::now(),
             progress,
             rx,
         }
+    }
+
+    /// Tags the job with the mesh generation it works on.
+    pub fn for_generation(mut self, generation: u64) -> Job {
+        self.generation = Some(generation);
+        self
     }
 
     /// `Some(result)` once the job has finished.
