@@ -32,7 +32,7 @@ struct Uniforms {
     wire_color: vec4<f32>,
     // rgb pattern line/ink colour, a = fill contrast
     pattern_color: vec4<f32>,
-    // x pattern scale, y wire width px, z pattern line width px, w lic frequency (cells per radius)
+    // x pattern scale, y wire width px, z pattern line width px, w lic noise cell size (px)
     params: vec4<f32>,
     // x lic strength, y lic length (cells), z glyph size px, w overlay line width px
     params2: vec4<f32>,
@@ -214,7 +214,7 @@ fn value_noise(x: vec3<f32>) -> f32 {
     return mix(mix(x00, x10, s.y), mix(x01, x11, s.y), s.z);
 }
 
-const LIC_TAPS: i32 = 10;
+const LIC_TAPS: i32 = 8;
 
 // Noise fixed on the surface (a 3-D value noise evaluated at the surface point)
 // convolved with a Hann window along a straight streamline in the face's
@@ -240,10 +240,7 @@ fn rotate_in_plane(d: vec3<f32>, n: vec3<f32>, angle: f32) -> vec3<f32> {
 
 // N-symmetric field: average the LIC along the N/2 distinct line directions
 // (N = 2: one family of streaks, N = 4: cross-hatch, N = 6: three families).
-fn lic_field(world: vec3<f32>, field: vec3<f32>, n: vec3<f32>, sym: u32) -> f32 {
-    let freq = u.params.w / max(u.camera_pos.w, 1e-6);
-    let x = world * freq;
-    let d0 = normalize(field);
+fn lic_at(x: vec3<f32>, d0: vec3<f32>, n: vec3<f32>, sym: u32) -> f32 {
     let len = u.params2.y;
     let lines = max(sym / 2u, 1u);
     var acc = 0.0;
@@ -254,6 +251,21 @@ fn lic_field(world: vec3<f32>, field: vec3<f32>, n: vec3<f32>, sym: u32) -> f32 
     return acc / f32(lines);
 }
 
+// The noise lives on the surface, at a frequency picked from the pixel
+// footprint so a noise cell covers about `u.params.w` pixels at any zoom:
+// the two nearest power-of-two frequencies are blended (like mip levels), so
+// the pattern does not swim while zooming.
+fn lic_field(world: vec3<f32>, field: vec3<f32>, n: vec3<f32>, sym: u32, pixel_world: f32) -> f32 {
+    let cell = max(u.params.w, 0.5) * max(pixel_world, 1e-9);
+    let level = log2(1.0 / cell);
+    let l0 = floor(level);
+    let t = level - l0;
+    let d0 = normalize(field);
+    let a = lic_at(world * exp2(l0), d0, n, sym);
+    let b = lic_at(world * exp2(l0 + 1.0), d0, n, sym);
+    return mix(a, b, t);
+}
+
 // ---------------------------------------------------------------- fragment
 
 @fragment
@@ -262,6 +274,7 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
     let fw_bary = fwidth(in.bary);
     let p = in.uv * u.params.x;
     let pix = 0.5 * (length(dpdx(p)) + length(dpdy(p)));
+    let pixel_world = 0.5 * (length(dpdx(in.world)) + length(dpdy(in.world)));
 
     let geo_n = normalize(select(in.normal, in.face_normal, u.modes.x == 1u));
     let to_eye = normalize(u.camera_pos.xyz - in.world);
@@ -297,7 +310,7 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
 
     // field visualisation
     if (u.flags.x == 1u && u.flags.z == 1u && dot(in.field, in.field) > 1e-12) {
-        let l = lic_field(in.world, in.field, geo_n, u.modes.w);
+        let l = lic_field(in.world, in.field, geo_n, u.modes.w, pixel_world);
         let s = u.params2.x;
         albedo = albedo * mix(1.0, 0.35 + 1.1 * l, s);
     }

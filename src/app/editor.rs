@@ -545,9 +545,9 @@ impl EditorApp {
             ui.add(egui::Slider::new(&mut d.line_width, 0.5..=4.0).text("Line width (px)"));
             ui.add(egui::Slider::new(&mut d.lic_strength, 0.0..=1.0).text("LIC strength"));
             ui.add(
-                egui::Slider::new(&mut d.lic_frequency, 30.0..=600.0)
+                egui::Slider::new(&mut d.lic_cell_px, 1.0..=8.0)
                     .logarithmic(true)
-                    .text("LIC detail"),
+                    .text("LIC grain (px)"),
             );
             if d.mode == DisplayMode::Pattern && !has_param {
                 ui.colored_label(egui::Color32::LIGHT_YELLOW, "No parameterization yet");
@@ -745,9 +745,14 @@ fn legend(ui: &mut egui::Ui, n: u32) {
             let c = singularity_color(k, n);
             let to8 = |x: f32| (x.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0) as u8;
             let color = egui::Color32::from_rgb(to8(c[0]), to8(c[1]), to8(c[2]));
-            let (rect, _) = ui.allocate_exact_size(egui::vec2(12.0, 12.0), egui::Sense::hover());
-            ui.painter().circle_filled(rect.center(), 5.5, color);
-            ui.label(format!("{}{k}/{n}", if k > 0 { "+" } else { "" }));
+            // one group per entry so wrapping never separates a dot from its label
+            ui.horizontal(|ui| {
+                ui.spacing_mut().item_spacing.x = 3.0;
+                let (rect, _) =
+                    ui.allocate_exact_size(egui::vec2(12.0, 12.0), egui::Sense::hover());
+                ui.painter().circle_filled(rect.center(), 5.5, color);
+                ui.label(format!("{}{k}/{n}", if k > 0 { "+" } else { "" }));
+            });
         }
     });
 }

@@ -448,7 +448,7 @@ impl Renderer {
                 settings.pattern_scale,
                 settings.line_width,
                 settings.line_width * 1.4,
-                settings.lic_frequency,
+                settings.lic_cell_px,
             ],
             params2: [
                 settings.lic_strength,

@@ -100,8 +100,8 @@ pub struct DisplaySettings {
     pub pattern_scale: f32,
     /// Line width of patterns and wireframe, pixels.
     pub line_width: f32,
-    /// Noise cells per scene radius for the LIC.
-    pub lic_frequency: f32,
+    /// Size of a LIC noise cell on screen, pixels.
+    pub lic_cell_px: f32,
     /// Streak length in noise cells.
     pub lic_length: f32,
     /// 0..1 blend of the LIC over the shading.
@@ -125,7 +125,7 @@ impl Default for DisplaySettings {
             pattern: Pattern::QuadGrid,
             pattern_scale: 1.0,
             line_width: 1.2,
-            lic_frequency: 120.0,
+            lic_cell_px: 2.5,
             lic_length: 8.0,
             lic_strength: 0.9,
             show_singularities: true,
