@@ -745,14 +745,20 @@ fn legend(ui: &mut egui::Ui, n: u32) {
             let c = singularity_color(k, n);
             let to8 = |x: f32| (x.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0) as u8;
             let color = egui::Color32::from_rgb(to8(c[0]), to8(c[1]), to8(c[2]));
-            // one group per entry so wrapping never separates a dot from its label
-            ui.horizontal(|ui| {
-                ui.spacing_mut().item_spacing.x = 3.0;
-                let (rect, _) =
-                    ui.allocate_exact_size(egui::vec2(12.0, 12.0), egui::Sense::hover());
-                ui.painter().circle_filled(rect.center(), 5.5, color);
-                ui.label(format!("{}{k}/{n}", if k > 0 { "+" } else { "" }));
-            });
+            // one widget per entry so wrapping never separates a dot from its label
+            let text = format!("{}{k}/{n}", if k > 0 { "+" } else { "" });
+            let galley = ui.painter().layout_no_wrap(
+                text,
+                egui::TextStyle::Body.resolve(ui.style()),
+                ui.visuals().text_color(),
+            );
+            let size = egui::vec2(16.0 + galley.size().x, galley.size().y.max(12.0));
+            let (rect, _) = ui.allocate_exact_size(size, egui::Sense::hover());
+            let dot = egui::pos2(rect.left() + 6.0, rect.center().y);
+            ui.painter().circle_filled(dot, 5.5, color);
+            let text_pos = egui::pos2(rect.left() + 16.0, rect.center().y - 0.5 * galley.size().y);
+            ui.painter()
+                .galley(text_pos, galley, ui.visuals().text_color());
         }
     });
 }
