@@ -240,6 +240,81 @@ fn results_for_a_replaced_mesh_are_discarded() {
     assert!(h.state().error.is_none());
 }
 
+#[test]
+fn camera_orbits_pans_zooms_and_fits() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness(&dir.path().join("recent.txt"), None);
+    settle(&mut h);
+    let fitted = h.state().camera;
+    let c = egui::pos2(700.0, 400.0);
+    let drag = |h: &mut Harness<'static, EditorApp>, button, to: egui::Pos2| {
+        h.hover_at(c);
+        h.event(egui::Event::PointerButton {
+            pos: c,
+            button,
+            pressed: true,
+            modifiers: egui::Modifiers::NONE,
+        });
+        h.step();
+        for i in 1..=5 {
+            h.hover_at(c + (to - c) * (i as f32 / 5.0));
+            h.step();
+        }
+        h.event(egui::Event::PointerButton {
+            pos: to,
+            button,
+            pressed: false,
+            modifiers: egui::Modifiers::NONE,
+        });
+        h.step();
+    };
+    // LMB: orbit
+    drag(
+        &mut h,
+        egui::PointerButton::Primary,
+        c + egui::vec2(120.0, 30.0),
+    );
+    let orbited = h.state().camera;
+    assert!((orbited.yaw - fitted.yaw).abs() > 0.3, "{orbited:?}");
+    assert!((orbited.pitch - fitted.pitch).abs() > 0.05);
+    assert_eq!(orbited.target, fitted.target);
+    // RMB: pan
+    drag(
+        &mut h,
+        egui::PointerButton::Secondary,
+        c + egui::vec2(-80.0, 40.0),
+    );
+    let panned = h.state().camera;
+    assert!((panned.target - orbited.target).length() > 1e-3);
+    assert_eq!(panned.yaw, orbited.yaw);
+    // wheel: zoom
+    h.hover_at(c);
+    h.event(egui::Event::MouseWheel {
+        unit: egui::MouseWheelUnit::Point,
+        delta: egui::vec2(0.0, 200.0),
+        phase: egui::TouchPhase::Move,
+        source: egui::MouseWheelSource::Wheel,
+        modifiers: egui::Modifiers::NONE,
+    });
+    h.run_steps(20);
+    assert!(h.state().camera.distance < panned.distance * 0.95);
+    // F: fit again (target and distance)
+    h.key_press(egui::Key::F);
+    h.run_steps(2);
+    let refit = h.state().camera;
+    assert!((refit.target - fitted.target).length() < 1e-5);
+    assert!((refit.distance - fitted.distance).abs() < 1e-4);
+    // the Fit button does the same
+    drag(
+        &mut h,
+        egui::PointerButton::Secondary,
+        c + egui::vec2(50.0, 50.0),
+    );
+    h.get_by_label("Fit (F)").click();
+    h.run_steps(2);
+    assert!((h.state().camera.target - fitted.target).length() < 1e-5);
+}
+
 #[derive(Debug)]
 struct Dropped(PathBuf);
 
