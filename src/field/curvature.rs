@@ -44,8 +44,30 @@ pub fn eig2(a: f64, b: f64, c: f64) -> (f64, f64, f64) {
     (mean + r, mean - r, 0.5 * (2.0 * b).atan2(a - c))
 }
 
+/// One pass of neighbour averaging: each vertex's operator becomes the mean of itself and its
+/// one-ring (ambient 3x3 tensors; the face step projects them to the tangent plane).
+fn smooth_vertex_tensors(mesh: &TriMesh, vs: &[Sym3]) -> Vec<Sym3> {
+    (0..mesh.n_vertices())
+        .into_par_iter()
+        .map(|v| {
+            let mut s = vs[v];
+            let ring = mesh.one_ring(v);
+            for &u in &ring {
+                for k in 0..6 {
+                    s[k] += vs[u][k];
+                }
+            }
+            s.map(|x| x / (1 + ring.len()) as f64)
+        })
+        .collect()
+}
+
 impl Curvature {
-    pub fn compute(mesh: &TriMesh, bases: &FaceBases) -> Curvature {
+    /// Principal curvatures per face. `smoothing` passes average each vertex's shape operator
+    /// with its neighbours' first (0 = the thesis's eq. 3.2 as is): on scanned meshes the
+    /// per-face operator is noisy at the scale of a few triangles, and noise there becomes
+    /// singularities of the guided field.
+    pub fn compute(mesh: &TriMesh, bases: &FaceBases, smoothing: usize) -> Curvature {
         let nv = mesh.n_vertices();
         // Eq. (3.1): S(e) = H_e (ê × N_e)(ê × N_e)^T, with N_e the normalised mean of the two face
         // normals and H_e = 2|e| cos(Θ_e/2) the integrated mean curvature, Θ_e the interior
@@ -96,6 +118,20 @@ impl Curvature {
                 star[v] += a;
             }
         }
+        let mut vs: Vec<Sym3> = vs
+            .iter()
+            .zip(&star)
+            .map(|(s, &a)| {
+                if a > 0.0 {
+                    s.map(|x| x * 1.5 / a)
+                } else {
+                    [0.0; 6]
+                }
+            })
+            .collect();
+        for _ in 0..smoothing {
+            vs = smooth_vertex_tensors(mesh, &vs);
+        }
         // Eq. (3.2): S(t) = Σ ρ_jk S(e_jk) with ρ = 2/3 for the edges of t and 1/3 for edges
         // sharing one vertex — the mean of the three vertex operators.
         let data: Vec<(f64, f64, f64)> = (0..mesh.n_faces())
@@ -103,13 +139,8 @@ impl Curvature {
             .map(|f| {
                 let mut s = [0.0; 6];
                 for v in mesh.face(f) {
-                    let w = if star[v] > 0.0 {
-                        1.5 / star[v] / 3.0
-                    } else {
-                        0.0
-                    };
                     for k in 0..6 {
-                        s[k] += w * vs[v][k];
+                        s[k] += vs[v][k] / 3.0;
                     }
                 }
                 let (e1, e2) = (bases.e1[f], bases.e2[f]);
