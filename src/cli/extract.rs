@@ -68,8 +68,8 @@ pub fn run(args: &ExtractArgs) -> Result<(), CliError> {
     write_obj(&args.out, &out).map_err(|e| format!("{}: {e}", args.out.display()))?;
     println!("{q}");
     if let Some(path) = &args.report {
-        std::fs::write(path, serde_json::to_string_pretty(&q)?)
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+        let json = serde_json::to_string_pretty(&q)?;
+        crate::io::write_atomic(path, |w| std::io::Write::write_all(w, json.as_bytes()))?;
     }
     Ok(())
 }

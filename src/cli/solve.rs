@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
+use crate::extract::{self, ExtractOptions, RemeshQuality, dual, remesh_report};
 use clap::{Args, ValueEnum};
 use indicatif::ProgressBar;
 use serde::Serialize;
@@ -57,6 +58,13 @@ pub struct SolveArgs {
     /// Optional JSON report.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Also extract and write the remesh (quads for N = 4, triangles for N = 6, iso-line
+    /// polylines for N = 2); its quality goes into the report's `remesh` block.
+    #[arg(long)]
+    pub remesh: Option<PathBuf>,
+    /// With --symmetry 6 and --remesh: write the hexagon mesh (dual of the triangle remesh).
+    #[arg(long, requires = "remesh")]
+    pub dual: bool,
 }
 
 #[derive(Debug, Serialize)]
@@ -78,6 +86,7 @@ struct TimingsOut {
     local: f64,
     cut: f64,
     global: f64,
+    remesh: f64,
     total: f64,
 }
 
@@ -95,6 +104,8 @@ struct Report {
     conformal_distortion: DistortionOut,
     area_distortion: f64,
     timings_ms: TimingsOut,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    remesh: Option<RemeshQuality>,
 }
 
 /// Per-stage progress on stderr: a spinner naming the running stage on terminals (indicatif
@@ -283,6 +294,24 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         &io::write::ObjOutput::new(&soup.positions, &soup.triangles).with_uvs(&corner_uvs),
     )?;
     bar.done("write", t);
+    let remesh = match &args.remesh {
+        Some(path) => {
+            bar.start("remesh");
+            let t = Instant::now();
+            let (mut remesh, mut quality) =
+                remesh_report(&mesh, &p.uv, n as u8, &ExtractOptions::default())?;
+            if args.dual && n == 6 {
+                remesh = dual(&remesh);
+                quality = extract::quality(&remesh, &mesh);
+            }
+            let out = io::write::ObjOutput::new(&remesh.positions, &remesh.faces)
+                .with_polylines(&remesh.polylines);
+            io::write::write_obj(path, &out)?;
+            timings.remesh = bar.done("remesh", t);
+            Some(quality)
+        }
+        None => None,
+    };
     timings.total = total.elapsed().as_secs_f64() * 1e3;
     let topo = mesh.topology();
     bar.line(format!(
@@ -318,6 +347,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             },
             area_distortion: p.area_distortion,
             timings_ms: timings,
+            remesh: remesh.clone(),
         };
         let json = serde_json::to_string_pretty(&report)?;
         io::write::write_atomic(path, |w| w.write_all(json.as_bytes()))?;
