@@ -303,6 +303,21 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
             }
             default: {}
         }
+        // When cells shrink to a few pixels, fade to the pattern's mean value
+        // instead of aliasing into moire.
+        let fade = smoothstep(0.3, 0.7, pix);
+        // mean ink of the lines, capped, and gone once cells are below a pixel
+        let mean_line = min(2.0 * w * pix, 0.5) * (1.0 - smoothstep(0.5, 2.0, pix));
+        var mean_fill = 0.0;
+        switch u.modes.y {
+            case 2u, 5u: { mean_fill = 0.5; }
+            // square area (sqrt2 - 1)^2 per unit cell
+            case 6u: { mean_fill = 0.1716; }
+            // hexagon centre shading is smooth already
+            case 4u: { mean_fill = fl.x; }
+            default: {}
+        }
+        fl = mix(fl, vec2<f32>(mean_fill, mean_line), fade * f32(u.modes.y != 7u));
         let fill_tint = mix(albedo, albedo * 0.55, u.pattern_color.a);
         albedo = mix(albedo, fill_tint, fl.x);
         albedo = mix(albedo, u.pattern_color.rgb, fl.y);
