@@ -8,11 +8,10 @@
 //!   "matchings": [0, 3, ...] }                         // per edge, in 0..N (0 on boundary edges)
 //! ```
 //! Frames are written as JSON numbers in the shortest decimal form that reads back to the same
-//! f64. Exactness on import: serde_json without its `float_roundtrip` feature (not enabled in
-//! this crate) parses decimals approximately (mantissa × power of ten, off by an ulp for some
-//! values — verified in tests/field.rs). So after serde has validated the document, the numbers
-//! of the `frames` array are re-read from the text with Rust's correctly rounded `str::parse`,
-//! which makes export → import bit-exact. Unknown and duplicate keys are rejected, so the
+//! f64. Exactness on import: serde_json parses decimals approximately unless its
+//! `float_roundtrip` feature is on (it is, in Cargo.toml, for every module). As a guard against
+//! that feature being dropped, the numbers of the `frames` array are also re-read from the text
+//! with Rust's correctly rounded `str::parse`; tests/field.rs checks export → import is bit-exact. Unknown and duplicate keys are rejected, so the
 //! `"frames"` key occurs exactly once in a valid file.
 
 use serde::{Deserialize, Serialize};
