@@ -6,6 +6,7 @@ use std::time::{Duration, Instant};
 
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
+use quadcover::app::editor::ExportKind;
 use quadcover::app::settings::{DisplayMode, Pattern, Shading};
 use quadcover::app::{EditorApp, EditorOptions};
 
@@ -141,6 +142,37 @@ fn switches_display_mode_pattern_and_shading() {
     assert_eq!(h.state().document.display.pattern, Pattern::QuadGrid);
     h.get_by_label_contains("Parameterization: ");
     save_render(&mut h, "ui_kitten_quads.png");
+
+    // File ▸ Export, as background jobs: the UV OBJ reads back with the solver's UVs, and the
+    // remesh of the genus-1 kitten is a closed quad-dominant mesh.
+    let uv_path = dir.path().join("kitten-uv.obj");
+    let remesh_path = dir.path().join("kitten-quads.obj");
+    h.state_mut()
+        .start_export(None, ExportKind::UvObj, uv_path.clone());
+    h.state_mut()
+        .start_export(None, ExportKind::Remesh, remesh_path.clone());
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    let back = quadcover::io::read_obj_bytes(&std::fs::read(&uv_path).unwrap()).unwrap();
+    let uv = &h.state().document.parameterization.as_ref().unwrap().uv;
+    assert_eq!(back.corner_uvs.as_ref(), Some(uv));
+    let text = std::fs::read_to_string(&remesh_path).unwrap();
+    let sides: Vec<usize> = text
+        .lines()
+        .filter(|l| l.starts_with("f "))
+        .map(|l| l.split_whitespace().count() - 1)
+        .collect();
+    let quads = sides.iter().filter(|&&n| n == 4).count();
+    assert!(
+        sides.len() > 1000 && quads * 10 > sides.len() * 9,
+        "{quads} quads of {}",
+        sides.len()
+    );
+    assert!(
+        h.state().status.starts_with("Saved "),
+        "{}",
+        h.state().status
+    );
 
     h.get_by_label("Shaded").click();
     h.run_steps(2);

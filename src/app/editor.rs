@@ -228,6 +228,39 @@ impl EditorApp {
         );
     }
 
+    /// Writes the parameterized mesh (OBJ with per-corner UVs) or its remesh in the background.
+    pub fn start_export(&mut self, ctx: Option<egui::Context>, kind: ExportKind, path: PathBuf) {
+        let (Some(mesh), Some(p)) = (
+            self.document.mesh.clone(),
+            self.document.parameterization.as_ref(),
+        ) else {
+            self.status = "Nothing to export: parameterize first".into();
+            return;
+        };
+        let (uv, n) = (p.uv.clone(), p.symmetry as u8);
+        self.jobs.push(Job::spawn(
+            format!("Exporting {}", path.display()),
+            ctx,
+            move |_| {
+                match kind {
+                    ExportKind::UvObj => crate::export::write_uv_obj(&path, &mesh, &uv)
+                        .map(|()| JobOutput::Exported(format!("Saved {}", path.display()))),
+                    ExportKind::Remesh => crate::export::write_remesh(&path, &mesh, &uv, n, n == 6)
+                        .map(|q| {
+                            JobOutput::Exported(format!(
+                                "Saved {}: {} vertices, {} irregular, RSD edge {:.1} %",
+                                path.display(),
+                                q.vertices,
+                                q.irregular_vertices,
+                                100.0 * q.rsd_edge
+                            ))
+                        }),
+                }
+                .map_err(|e| e.to_string())
+            },
+        ));
+    }
+
     /// Takes finished jobs' results into the document.
     pub fn poll_jobs(&mut self) {
         let mut i = 0;
@@ -277,6 +310,9 @@ impl EditorApp {
                         job.name,
                         job.started.elapsed().as_secs_f32()
                     );
+                }
+                Ok(JobOutput::Exported(message)) => {
+                    self.status = message;
                 }
                 Ok(JobOutput::Parameterized(p)) => {
                     let n = p.symmetry as u32;
@@ -417,16 +453,35 @@ impl EditorApp {
                 }
                 ui.separator();
                 let has_param = self.document.has_param();
-                // Stubs: enabled once a parameterization exists, writers come later.
-                for label in ["Export OBJ with UVs…", "Export quad mesh…"] {
+                for kind in [ExportKind::UvObj, ExportKind::Remesh] {
                     if ui
-                        .add_enabled(has_param, egui::Button::new(label))
+                        .add_enabled(has_param, egui::Button::new(kind.label()))
                         .on_disabled_hover_text("Needs a parameterization")
                         .clicked()
                     {
-                        self.status = format!("{label} is not implemented yet");
+                        if let Some(p) = rfd::FileDialog::new()
+                            .add_filter("OBJ", &["obj"])
+                            .set_file_name(kind.default_name())
+                            .save_file()
+                        {
+                            self.start_export(Some(ui.ctx().clone()), kind, p);
+                        }
                         ui.close();
                     }
+                }
+                if ui
+                    .add_enabled(
+                        has_param,
+                        egui::Button::new("Quick export both (current folder)"),
+                    )
+                    .on_disabled_hover_text("Needs a parameterization")
+                    .clicked()
+                {
+                    for kind in [ExportKind::UvObj, ExportKind::Remesh] {
+                        let p = PathBuf::from(kind.default_name());
+                        self.start_export(Some(ui.ctx().clone()), kind, p);
+                    }
+                    ui.close();
                 }
                 if ui.button("Screenshot to PNG…").clicked() {
                     if let Some(p) = rfd::FileDialog::new()
@@ -730,6 +785,30 @@ impl EditorApp {
 }
 
 /// `quadcover-screenshot-N.png` in the current folder, N the first free number.
+/// What File ▸ Export writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ExportKind {
+    /// The mesh with per-corner UVs.
+    UvObj,
+    /// Quads (N = 4), hexagons (N = 6) or stripe polylines (N = 2).
+    Remesh,
+}
+
+impl ExportKind {
+    fn label(self) -> &'static str {
+        match self {
+            ExportKind::UvObj => "Export OBJ with UVs…",
+            ExportKind::Remesh => "Export remesh…",
+        }
+    }
+    fn default_name(self) -> &'static str {
+        match self {
+            ExportKind::UvObj => "quadcover-uv.obj",
+            ExportKind::Remesh => "quadcover-remesh.obj",
+        }
+    }
+}
+
 fn quick_screenshot_path() -> PathBuf {
     (1..)
         .map(|n| PathBuf::from(format!("quadcover-screenshot-{n}.png")))

@@ -17,6 +17,8 @@ pub enum JobOutput {
     FieldComputed(Box<crate::field::FieldResult>),
     /// A parameterization from `quadcover::param::parameterize`.
     Parameterized(Box<crate::param::Parameterization>),
+    /// A file was written; the message says what and where.
+    Exported(String),
 }
 
 /// Shared progress of a running job: a fraction in [0, 1] (or unknown) and a
