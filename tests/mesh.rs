@@ -24,7 +24,16 @@ fn broken(name: &str) -> PathBuf {
 }
 
 /// (file, V in file, V referenced, E, F, genus, boundary loop lengths) from shared/meshes/README.md.
-const SHARED: &[(&str, usize, usize, usize, usize, i64, &[usize])] = &[
+type Expected = (
+    &'static str,
+    usize,
+    usize,
+    usize,
+    usize,
+    i64,
+    &'static [usize],
+);
+const SHARED: &[Expected] = &[
     (
         "bunny.obj",
         35947,

@@ -187,7 +187,7 @@ impl TriMesh {
         let mut first: Option<(usize, usize)> = None;
         for v in 0..self.n_vertices() {
             let walked = self.outgoing(v).count() as u32;
-            if walked != incident[v as usize] {
+            if walked != incident[v] {
                 bad += 1;
                 if first.is_none() {
                     first = Some((v, self.count_fans(v)));
@@ -301,6 +301,9 @@ fn check_degenerate(soup: &PolygonSoup) -> Result<(), MeshError> {
     }
 }
 
+/// The (face, corner) pairs using one undirected edge.
+type Incidence = Vec<(u32, u8)>;
+
 /// Undirected edges with the faces (and corner) using them, before orientation is fixed.
 struct EdgeIncidence {
     /// (min vertex, max vertex) -> list of (face, k) where the halfedge k of face starts.
@@ -326,7 +329,7 @@ impl EdgeIncidence {
         original_vertex: &[u32],
         describe_face: &dyn Fn(usize) -> String,
     ) -> Result<(), MeshError> {
-        let mut bad: Vec<(&(u32, u32), &Vec<(u32, u8)>)> =
+        let mut bad: Vec<(&(u32, u32), &Incidence)> =
             self.map.iter().filter(|(_, fs)| fs.len() > 2).collect();
         if bad.is_empty() {
             return Ok(());

@@ -79,7 +79,7 @@ impl TriMesh {
         if h % 3 == 2 { h - 2 } else { h + 1 }
     }
     pub fn prev(&self, h: usize) -> usize {
-        if h % 3 == 0 { h + 2 } else { h - 1 }
+        if h.is_multiple_of(3) { h + 2 } else { h - 1 }
     }
     pub fn face_of(&self, h: usize) -> usize {
         h / 3
@@ -141,10 +141,10 @@ impl TriMesh {
     /// neighbours included, the last one reached through the last face).
     pub fn one_ring(&self, v: usize) -> Vec<usize> {
         let mut ring: Vec<usize> = self.outgoing(v).map(|h| self.to(h)).collect();
-        if self.is_boundary_vertex(v) {
-            if let Some(last) = self.outgoing(v).last() {
-                ring.push(self.from(self.prev(last)));
-            }
+        if self.is_boundary_vertex(v)
+            && let Some(last) = self.outgoing(v).last()
+        {
+            ring.push(self.from(self.prev(last)));
         }
         ring
     }
