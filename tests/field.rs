@@ -294,34 +294,6 @@ fn curvature_smoothing_resists_noise() {
     );
 }
 
-/// Torus of revolution like `generate::torus` but with alternating quad diagonals (no preferred
-/// diagonal direction, like an unstructured mesh).
-fn torus_alternating(big_r: f64, r: f64, nu: usize, nv: usize) -> TriMesh {
-    let mut p = Vec::new();
-    for j in 0..nv {
-        for i in 0..nu {
-            let (u, v) = (TAU * i as f64 / nu as f64, TAU * j as f64 / nv as f64);
-            let rho = big_r + r * v.cos();
-            p.push(DVec3::new(rho * u.cos(), rho * u.sin(), r * v.sin()));
-        }
-    }
-    let id = |i: usize, j: usize| ((j % nv) * nu + i % nu) as u32;
-    let mut f = Vec::new();
-    for j in 0..nv {
-        for i in 0..nu {
-            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
-            if (i + j) % 2 == 1 {
-                f.push([a, b, d]);
-                f.push([b, c, d]);
-            } else {
-                f.push([a, b, c]);
-                f.push([a, c, d]);
-            }
-        }
-    }
-    TriMesh::from_triangles(p, f).unwrap()
-}
-
 fn torus_worst_deviation(torus: &TriMesh, p: &FieldParams) -> (f64, usize) {
     let sym = p.symmetry;
     let res = compute_field(torus, p).unwrap();
@@ -345,7 +317,7 @@ fn torus_worst_deviation(torus: &TriMesh, p: &FieldParams) -> (f64, usize) {
 #[test]
 fn torus_field_follows_principal_directions() {
     // Unbiased triangulation, default parameters (10 % of the candidate faces constrained).
-    let torus = torus_alternating(3.0, 1.0, 96, 32);
+    let torus = generate::torus_alternating(3.0, 1.0, 96, 32);
     for sym in SYMS {
         let (worst, sing) = torus_worst_deviation(&torus, &params(sym));
         println!(

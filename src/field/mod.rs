@@ -347,18 +347,9 @@ fn reduce_matchings(tr: &EdgeTransport, r: &[i64], n: u32) -> Vec<i32> {
 /// Closest-angle matching (eq. 3.3, as rounding to the nearest multiple of 2π/N) between given
 /// per-face angles, per edge in 0..N.
 pub fn closest_matchings(tr: &EdgeTransport, theta: &[f64], n: u32) -> Vec<i32> {
-    let step = TAU / n as f64;
-    tr.faces
-        .iter()
-        .zip(&tr.kappa)
-        .map(|(f, k)| {
-            if f[1] == NO_FACE {
-                0
-            } else {
-                let d = theta[f[1] as usize] - theta[f[0] as usize] - k;
-                ((d / step).round() as i64).rem_euclid(n as i64) as i32
-            }
-        })
+    smoothing::nearest_turns(tr, theta, TAU / n as f64)
+        .into_iter()
+        .map(|r| r.rem_euclid(n as i64) as i32)
         .collect()
 }
 

@@ -92,6 +92,22 @@ pub(crate) fn dual_adjacency(tr: &EdgeTransport, nf: usize) -> (Vec<usize>, Vec<
     (start, adj)
 }
 
+/// Per edge the number of `step` turns nearest to the angle between the faces' frames after
+/// transport (eq. 3.3 before reduction mod N); 0 on boundary edges.
+pub(crate) fn nearest_turns(tr: &EdgeTransport, theta: &[f64], step: f64) -> Vec<i64> {
+    tr.faces
+        .iter()
+        .zip(&tr.kappa)
+        .map(|(f, k)| {
+            if f[1] == NO_FACE {
+                0
+            } else {
+                ((theta[f[1] as usize] - theta[f[0] as usize] - k) / step).round() as i64
+            }
+        })
+        .collect()
+}
+
 /// Weight of the reliable faces in the relaxed solve when τ = 0. Measured on fertility: with a
 /// vanishing gauge (1e-6 .. 1e-3) the rounded matchings settle on a slightly rougher field
 /// (E_smooth 30.16) than τ = 0.01 gives (30.07); at 1e-2 τ = 0 re-solves the same matchings
@@ -190,19 +206,7 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
     }
     let solver = SpdSolver::new(&b.build()?)?;
 
-    let round_all = |theta: &[f64]| -> Vec<i64> {
-        tr.faces
-            .iter()
-            .zip(&tr.kappa)
-            .map(|(f, k)| {
-                if f[1] == NO_FACE {
-                    0
-                } else {
-                    ((theta[f[1] as usize] - theta[f[0] as usize] - k) / step).round() as i64
-                }
-            })
-            .collect()
-    };
+    let round_all = |theta: &[f64]| nearest_turns(tr, theta, step);
     let mut theta = relaxed.clone();
     let mut r = round_all(&theta);
     let mut passes = 0;

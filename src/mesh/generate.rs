@@ -105,6 +105,16 @@ pub fn cylinder(r: f64, h: f64, nu: usize, nv: usize) -> TriMesh {
 /// A torus of revolution around z: major radius `big_r`, minor `r`, `nu` × `nv` quads.
 /// Vertex (i, j) sits at angles u = 2πi/nu (around z) and v = 2πj/nv (around the tube).
 pub fn torus(big_r: f64, r: f64, nu: usize, nv: usize) -> TriMesh {
+    torus_mesh(big_r, r, nu, nv, false)
+}
+
+/// Like [`torus`], with quad diagonals alternating in a checkerboard (no preferred diagonal
+/// direction, like an unstructured mesh).
+pub fn torus_alternating(big_r: f64, r: f64, nu: usize, nv: usize) -> TriMesh {
+    torus_mesh(big_r, r, nu, nv, true)
+}
+
+fn torus_mesh(big_r: f64, r: f64, nu: usize, nv: usize, alternate: bool) -> TriMesh {
     let mut p = Vec::new();
     for j in 0..nv {
         for i in 0..nu {
@@ -117,13 +127,14 @@ pub fn torus(big_r: f64, r: f64, nu: usize, nv: usize) -> TriMesh {
     let mut f = Vec::new();
     for j in 0..nv {
         for i in 0..nu {
+            let flip = alternate && (i + j) % 2 == 1;
             quad(
                 &mut f,
                 id(i, j),
                 id(i + 1, j),
                 id(i + 1, j + 1),
                 id(i, j + 1),
-                false,
+                flip,
             );
         }
     }
