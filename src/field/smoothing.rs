@@ -26,7 +26,7 @@ use std::f64::consts::TAU;
 use serde::{Deserialize, Serialize};
 
 use super::transport::{EdgeTransport, NO_FACE};
-use crate::sparse::{SolverError, SparseBuilder, SpdSolver};
+use crate::sparse::{BlockBuilder2, SolverError, SparseBuilder, SpdSolver};
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Relaxation {
@@ -277,12 +277,11 @@ fn relaxed_complex(
     let nf = inp.theta0.len();
     let n = inp.n as f64;
     let tr = inp.transport;
-    let mut b = SparseBuilder::with_capacity(2 * nf, 2 * nf + 12 * tr.faces.len());
+    let mut b = BlockBuilder2::with_capacity(nf, nf + 4 * tr.faces.len());
     let mut rhs = vec![0.0; 2 * nf];
     for i in 0..nf {
         let d = w[i] + if is_anchor[i] { 1.0 } else { 0.0 };
-        b.add(2 * i, 2 * i, d);
-        b.add(2 * i + 1, 2 * i + 1, d);
+        b.add(i, i, [d, 0.0, 0.0, d]);
         let (s, c) = (n * inp.theta0[i]).sin_cos();
         rhs[2 * i] = d * c;
         rhs[2 * i + 1] = d * s;
@@ -295,16 +294,12 @@ fn relaxed_complex(
         // |z_j − ρ z_i|², ρ = e^{iNκ_ij} = c + i s: identity blocks on the diagonal and the block
         // [[−c, s], [−s, −c]] coupling (x_j, y_j) with (x_i, y_i).
         let (s, c) = (n * tr.kappa[e]).sin_cos();
-        for k in 0..2 {
-            b.add(2 * i + k, 2 * i + k, 1.0);
-            b.add(2 * j + k, 2 * j + k, 1.0);
-        }
-        b.add_sym(2 * j, 2 * i, -c);
-        b.add_sym(2 * j, 2 * i + 1, s);
-        b.add_sym(2 * j + 1, 2 * i, -s);
-        b.add_sym(2 * j + 1, 2 * i + 1, -c);
+        b.add(i, i, [1.0, 0.0, 0.0, 1.0]);
+        b.add(j, j, [1.0, 0.0, 0.0, 1.0]);
+        b.add(j, i, [-c, s, -s, -c]);
+        b.add(i, j, [-c, -s, s, -c]);
     }
-    let z = SpdSolver::new(&b.build()?)?.solve(&rhs)?;
+    let z = SpdSolver::new_blocked(&b.build()?, 2)?.solve(&rhs)?;
     Ok((0..nf).map(|i| z[2 * i + 1].atan2(z[2 * i]) / n).collect())
 }
 

@@ -2,23 +2,33 @@
 //! (scaled) rotations R^k. For N = 2 every R^k = ±I, so u and v decouple into two systems with
 //! the same half-size scalar matrix (sec. 4.2); otherwise 2×2 blocks are assembled.
 
-use crate::sparse::{SparseBuilder, SpdSolver};
+use crate::sparse::{BlockBuilder2, SparseBuilder, SpdSolver};
 
 use super::ParamError;
 use super::rot::M2;
 
 pub(crate) struct BlockBuilder {
     scalar: bool,
+    /// The scalar matrix for N = 2 (u and v decouple).
     b: SparseBuilder,
+    /// The 2 × 2-block matrix otherwise.
+    blocks: BlockBuilder2,
 }
 
 impl BlockBuilder {
     pub fn new(scalar: bool, n: usize, nnz_hint: usize) -> BlockBuilder {
-        let dim = if scalar { n } else { 2 * n };
-        let cap = if scalar { nnz_hint } else { 4 * nnz_hint };
-        BlockBuilder {
-            scalar,
-            b: SparseBuilder::with_capacity(dim, cap),
+        if scalar {
+            BlockBuilder {
+                scalar,
+                b: SparseBuilder::with_capacity(n, nnz_hint),
+                blocks: BlockBuilder2::default(),
+            }
+        } else {
+            BlockBuilder {
+                scalar,
+                b: SparseBuilder::new(0),
+                blocks: BlockBuilder2::with_capacity(n, nnz_hint),
+            }
         }
     }
     /// Block (i, j) += k · m.
@@ -26,21 +36,18 @@ impl BlockBuilder {
         if self.scalar {
             self.b.add(i, j, k * m[0]);
         } else {
-            for r in 0..2 {
-                for c in 0..2 {
-                    let v = k * m[2 * r + c];
-                    if v != 0.0 {
-                        self.b.add(2 * i + r, 2 * j + c, v);
-                    }
-                }
-            }
+            self.blocks.add(i, j, m.map(|x| k * x));
         }
     }
     pub fn factor(&self) -> Result<BlockSolver, ParamError> {
-        let m = self.b.build()?;
+        let solver = if self.scalar {
+            SpdSolver::new(&self.b.build()?)?
+        } else {
+            SpdSolver::new_blocked(&self.blocks.build()?, 2)?
+        };
         Ok(BlockSolver {
             scalar: self.scalar,
-            solver: SpdSolver::new(&m)?,
+            solver,
         })
     }
 }
