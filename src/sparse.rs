@@ -271,7 +271,7 @@ impl SpdSolver {
     /// expanded, which keeps each block together and makes AMD, the costliest part of the
     /// analysis, about `block²` times cheaper.
     pub fn new_blocked(matrix: &SparseMatrix, block: usize) -> Result<SpdSolver, SolverError> {
-        if block <= 1 || matrix.n % block != 0 {
+        if block <= 1 || !matrix.n.is_multiple_of(block) {
             return Self::new(matrix);
         }
         let perm = block_ordering(matrix, block)?;
@@ -591,7 +591,7 @@ mod timing {
         let n = 300; // 90 000 blocks, 180 000 unknowns
         let id = |i: usize, j: usize| i * n + j;
         let mut b = SparseBuilder::new(2 * n * n);
-        let mut couple = |p: usize, q: usize, b: &mut SparseBuilder| {
+        let couple = |p: usize, q: usize, b: &mut SparseBuilder| {
             for k in 0..2 {
                 b.add(2 * p + k, 2 * p + k, 1.0);
                 b.add(2 * q + k, 2 * q + k, 1.0);
