@@ -17,6 +17,7 @@
 //! - Faces are closed by walking the rotation system (next edge = clockwise-next slot at the end
 //!   point); boundary points get extra slots along the input boundary.
 
+mod fill;
 mod lattice;
 mod quality;
 mod stripes;

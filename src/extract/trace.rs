@@ -1,5 +1,6 @@
 //! Grid extraction (N = 4 quads, N = 6 triangles): grid points, tracing, face closing.
 
+use super::fill;
 use glam::{DVec2, DVec3};
 
 use super::lattice::{Param, cross, dv, to_uv};
@@ -604,13 +605,28 @@ pub fn extract_grid(p: &Param, opts: &ExtractOptions) -> Remesh {
                     break;
                 }
             }
-            if ok && !outside && cycle.len() >= 3 {
-                faces.push(cycle);
+            if ok && !outside {
+                // Zero-length edges (two consecutive slots at one point) collapse; a cycle that
+                // still passes a point twice is no polygon: patched like an open one.
+                cycle.dedup();
+                while cycle.len() > 1 && cycle.first() == cycle.last() {
+                    cycle.pop();
+                }
+                let mut sorted = cycle.clone();
+                sorted.sort_unstable();
+                sorted.dedup();
+                if sorted.len() == cycle.len() && cycle.len() >= 3 {
+                    faces.push(cycle);
+                } else if cycle.len() >= 3 {
+                    patched += 1;
+                }
             } else if !ok && !outside {
                 patched += 1;
             }
         }
     }
+    // Patch the holes left by faces that could not be closed (their count is in `patched`).
+    fill::fill_holes(&mut faces, &on_boundary, opts.max_face_sides);
     // Compact.
     let mut map = vec![NONE; np];
     let mut positions = Vec::new();
