@@ -222,3 +222,174 @@ fn bad_input_is_an_error() {
         Err(e) => println!("{e}"),
     }
 }
+
+// --- the whole pipeline on shared meshes -------------------------------------------------------
+
+fn shared(name: &str) -> Option<TriMesh> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/meshes")
+        .join(name);
+    if !path.exists() {
+        eprintln!("skipping: {} not found", path.display());
+        return None;
+    }
+    Some(quadcover::load::load_mesh(&path).unwrap().mesh)
+}
+
+/// Field, QuadCover and extraction on a shared mesh; also the 3-D places where extraction may
+/// legitimately be irregular: singular vertices and faces the map folds over (signed UV area ≤ 0,
+/// well defined because all transitions are rotations).
+fn pipeline(
+    mesh: &TriMesh,
+    n: u32,
+    pure_quad: bool,
+) -> (Remesh, Vec<glam::DVec3>, Vec<glam::DVec3>) {
+    use quadcover::field::{FieldParams, Symmetry, compute_field};
+    use quadcover::param::{FieldRef, ParamOptions, parameterize};
+    let params = FieldParams {
+        symmetry: Symmetry::from_n(n).unwrap(),
+        ..Default::default()
+    };
+    let field = compute_field(mesh, &params).unwrap().field;
+    let opts = ParamOptions {
+        pure_quad,
+        ..Default::default()
+    };
+    let fr = FieldRef {
+        symmetry: n as usize,
+        frames: &field.frames,
+        matchings: &field.matchings,
+    };
+    let p = parameterize(mesh, fr, &opts).unwrap();
+    let singular: Vec<glam::DVec3> = p
+        .singularities
+        .iter()
+        .map(|s| mesh.position(s.vertex))
+        .collect();
+    let folded: Vec<glam::DVec3> = (0..mesh.n_faces())
+        .filter(|&f| {
+            let [a, b, c] = [0, 1, 2].map(|k| p.uv[3 * f + k]);
+            (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]) <= 0.0
+        })
+        .map(|f| mesh.face_centroid(f))
+        .collect();
+    let remesh = extract(mesh, &p.uv, n as u8, &ExtractOptions::default()).unwrap();
+    (remesh, singular, folded)
+}
+
+/// Interior vertex valences and the mean edge length of a polygon mesh.
+fn interior_valences(r: &Remesh) -> (Vec<(usize, usize)>, f64) {
+    let mut directed = std::collections::HashSet::new();
+    let mut valence = vec![0usize; r.positions.len()];
+    let mut sum = 0.0;
+    for f in &r.faces {
+        for k in 0..f.len() {
+            let (a, b) = (f[k], f[(k + 1) % f.len()]);
+            directed.insert((a, b));
+            valence[a as usize] += 1;
+            sum += (r.positions[a as usize] - r.positions[b as usize]).length();
+        }
+    }
+    let mut boundary = vec![false; r.positions.len()];
+    for &(a, b) in &directed {
+        if !directed.contains(&(b, a)) {
+            boundary[a as usize] = true;
+            boundary[b as usize] = true;
+        }
+    }
+    let out = (0..r.positions.len())
+        .filter(|&v| !boundary[v])
+        .map(|v| (v, valence[v]))
+        .collect();
+    (out, sum / directed.len() as f64)
+}
+
+fn near(p: glam::DVec3, places: &[glam::DVec3], radius: f64) -> bool {
+    places.iter().any(|q| (p - *q).length() < radius)
+}
+
+/// Issue check: the triangle remesh of a shared mesh from N = 6 has only valence-6 interior
+/// vertices away from singularities (and away from the few folded triangles it patches).
+#[test]
+fn hexcover_triangle_remesh_is_regular_away_from_singularities() {
+    for name in ["kitten.obj", "fertility.obj"] {
+        let Some(mesh) = shared(name) else { return };
+        let (r, singular, folded) = pipeline(&mesh, 6, false);
+        assert_manifold(&r);
+        let (valences, h) = interior_valences(&r);
+        // Non-triangles only where a singularity is off the lattice (index ±2/6 lands on a
+        // triangle centre, eq. 2.40) or around folds.
+        let centroid = |f: &Vec<u32>| {
+            f.iter()
+                .map(|&v| r.positions[v as usize])
+                .sum::<glam::DVec3>()
+                / f.len() as f64
+        };
+        for f in r.faces.iter().filter(|f| f.len() != 3) {
+            let c = centroid(f);
+            assert!(
+                near(c, &singular, 2.0 * h) || near(c, &folded, 3.0 * h),
+                "{name}: a {}-gon far from singularities and folds",
+                f.len()
+            );
+        }
+        let irregular: Vec<usize> = valences
+            .iter()
+            .filter(|(_, k)| *k != 6)
+            .map(|(v, _)| *v)
+            .collect();
+        let unexplained: Vec<usize> = irregular
+            .iter()
+            .copied()
+            .filter(|&v| {
+                let p = r.positions[v];
+                !near(p, &singular, 2.0 * h) && !near(p, &folded, 3.0 * h)
+            })
+            .collect();
+        println!(
+            "{name} N=6: {} vertices, {} irregular, {} singularities, {} folded, unexplained {}",
+            r.positions.len(),
+            irregular.len(),
+            singular.len(),
+            folded.len(),
+            unexplained.len()
+        );
+        assert!(
+            unexplained.is_empty(),
+            "{name}: irregular vertices far from singularities: {unexplained:?}"
+        );
+        // Euler characteristic of the remesh equals the input's (closed, genus preserved).
+        assert_eq!(euler(&r), mesh.euler_characteristic(), "{name}");
+    }
+}
+
+/// Issue check: with --pure-quad every singularity sits on Z², so every face is a quad except
+/// where extraction had to patch around folded triangles.
+#[test]
+fn pure_quad_remesh_of_shared_meshes_has_only_quads() {
+    for name in ["kitten.obj", "eight.obj", "fertility.obj"] {
+        let Some(mesh) = shared(name) else { return };
+        let (r, _, folded) = pipeline(&mesh, 4, true);
+        assert_manifold(&r);
+        let (_, h) = interior_valences(&r);
+        let centroid = |f: &Vec<u32>| {
+            f.iter()
+                .map(|&v| r.positions[v as usize])
+                .sum::<glam::DVec3>()
+                / f.len() as f64
+        };
+        let non_quads: Vec<&Vec<u32>> = r.faces.iter().filter(|f| f.len() != 4).collect();
+        let unexplained = non_quads
+            .iter()
+            .filter(|f| !near(centroid(f), &folded, 3.0 * h))
+            .count();
+        println!(
+            "{name} pure quad: {} faces, {} non-quads, {} folded triangles, unexplained {unexplained}",
+            r.faces.len(),
+            non_quads.len(),
+            folded.len()
+        );
+        assert_eq!(unexplained, 0, "{name}");
+        assert_eq!(euler(&r), mesh.euler_characteristic(), "{name}");
+    }
+}
