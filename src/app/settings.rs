@@ -48,15 +48,17 @@ impl Pattern {
         }
     }
 
-    /// Whether the pattern is invariant under rotation by 2*pi/N (so seams of an
-    /// N-symmetric parameterization are invisible).
+    /// Whether the pattern is invariant under the transitions of an N-symmetric
+    /// parameterization — rotation by 2π/N and a translation in its lattice (Z² for N = 2 and 4,
+    /// G6 for N = 6) — so that its seams are invisible.
     pub fn fits_symmetry(self, n: u32) -> bool {
         match self {
             Pattern::None | Pattern::Image => true,
             Pattern::QuadGrid | Pattern::Checkerboard | Pattern::OctagonSquare => {
                 n == 1 || n == 2 || n == 4
             }
-            Pattern::Triangles | Pattern::Hexagons => matches!(n, 1 | 2 | 3 | 6),
+            // Periodic on G6, not on Z²: seams of an N = 2 or 4 map (Z² translations) would show.
+            Pattern::Triangles | Pattern::Hexagons => matches!(n, 3 | 6),
             Pattern::Stripes => n == 1 || n == 2,
         }
     }
@@ -134,6 +136,36 @@ impl Default for DisplaySettings {
             overlay_line_width_px: 2.5,
             base_color: [0.62, 0.66, 0.72],
             background: [38, 40, 46],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Pattern;
+
+    #[test]
+    fn patterns_fit_the_lattice_and_rotation_of_their_symmetry() {
+        use Pattern::*;
+        for (n, fitting) in [
+            (2, vec![QuadGrid, Checkerboard, OctagonSquare, Stripes]),
+            (4, vec![QuadGrid, Checkerboard, OctagonSquare]),
+            (6, vec![Triangles, Hexagons]),
+        ] {
+            for p in [
+                QuadGrid,
+                Checkerboard,
+                OctagonSquare,
+                Stripes,
+                Triangles,
+                Hexagons,
+            ] {
+                assert_eq!(
+                    p.fits_symmetry(n),
+                    fitting.contains(&p),
+                    "{p:?} for N = {n}"
+                );
+            }
         }
     }
 }
