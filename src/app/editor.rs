@@ -319,12 +319,18 @@ impl EditorApp {
                     self.document.set_parameterization(*p);
                     let d = &mut self.document.display;
                     d.mode = DisplayMode::Pattern;
-                    if !d.pattern.fits_symmetry(n) || d.pattern == Pattern::None {
-                        d.pattern = match n {
-                            2 => Pattern::Stripes,
-                            6 => Pattern::Hexagons,
-                            _ => Pattern::QuadGrid,
-                        };
+                    // Each symmetry's own pattern, unless the user chose another that fits.
+                    let natural = match n {
+                        2 => Pattern::Stripes,
+                        6 => Pattern::Hexagons,
+                        _ => Pattern::QuadGrid,
+                    };
+                    let someones_natural = matches!(
+                        d.pattern,
+                        Pattern::None | Pattern::Stripes | Pattern::Hexagons | Pattern::QuadGrid
+                    );
+                    if !d.pattern.fits_symmetry(n) || someones_natural {
+                        d.pattern = natural;
                     }
                     self.status = format!(
                         "{} done in {:.2} s",
