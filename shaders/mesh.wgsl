@@ -47,6 +47,8 @@ struct Uniforms {
 @group(0) @binding(0) var<uniform> u: Uniforms;
 @group(0) @binding(1) var pattern_tex: texture_2d<f32>;
 @group(0) @binding(2) var pattern_sampler: sampler;
+// LIC intensity per pixel (r), written by shaders/lic.wgsl; read by fs_main only.
+@group(1) @binding(0) var lic_tex: texture_2d<f32>;
 
 struct VsIn {
     @builtin(vertex_index) index: u32,
@@ -187,6 +189,13 @@ fn pattern_octagon_square(p: vec2<f32>, pix: f32, w: f32) -> vec2<f32> {
 }
 
 // ---------------------------------------------------------------- LIC
+//
+// The field display is a screen-space line integral convolution in three
+// passes (see render.rs): `fs_field` writes white noise fixed on the surface,
+// the field's N/2 line directions projected to the screen and the view depth
+// into two offscreen targets; shaders/lic.wgsl convolves the noise along
+// screen-space streamlines of each direction family; `fs_main` reads the
+// result at its pixel and blends it over the shading.
 
 fn hash3(p: vec3<i32>) -> f32 {
     var h = u32(p.x) * 73856093u ^ u32(p.y) * 19349663u ^ u32(p.z) * 83492791u;
@@ -195,75 +204,82 @@ fn hash3(p: vec3<i32>) -> f32 {
     return f32(h & 0xffffu) / 65535.0;
 }
 
-fn value_noise(x: vec3<f32>) -> f32 {
-    let i = vec3<i32>(floor(x));
-    let f = fract(x);
-    let s = f * f * (3.0 - 2.0 * f);
-    let n000 = hash3(i);
-    let n100 = hash3(i + vec3<i32>(1, 0, 0));
-    let n010 = hash3(i + vec3<i32>(0, 1, 0));
-    let n110 = hash3(i + vec3<i32>(1, 1, 0));
-    let n001 = hash3(i + vec3<i32>(0, 0, 1));
-    let n101 = hash3(i + vec3<i32>(1, 0, 1));
-    let n011 = hash3(i + vec3<i32>(0, 1, 1));
-    let n111 = hash3(i + vec3<i32>(1, 1, 1));
-    let x00 = mix(n000, n100, s.x);
-    let x10 = mix(n010, n110, s.x);
-    let x01 = mix(n001, n101, s.x);
-    let x11 = mix(n011, n111, s.x);
-    return mix(mix(x00, x10, s.y), mix(x01, x11, s.y), s.z);
-}
-
-const LIC_TAPS: i32 = 8;
-
-// Noise fixed on the surface (a 3-D value noise evaluated at the surface point)
-// convolved with a Hann window along a straight streamline in the face's
-// tangent plane. Per face the field is constant, so this is exact LIC inside a
-// face; across edges the streaks continue as far as the field does.
-fn lic_along(x: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
-    var acc = 0.0;
-    var wsum = 0.0;
-    for (var i = -LIC_TAPS; i <= LIC_TAPS; i = i + 1) {
-        let t = f32(i) / f32(LIC_TAPS);
-        let wgt = 0.5 + 0.5 * cos(PI * t);
-        acc = acc + wgt * value_noise(x + dir * (t * len));
-        wsum = wsum + wgt;
-    }
-    let m = acc / wsum;
-    // re-expand contrast lost by averaging
-    return clamp(0.5 + (m - 0.5) * 3.5, 0.0, 1.0);
+// White noise on the surface: a hash of the 3-D position quantised to cells of
+// about `u.params.w` pixels at the current zoom. The two nearest power-of-two
+// cell sizes are blended (like mip levels) so the noise does not swim while
+// zooming; the blend is rescaled to keep the variance of one level. The lattice
+// is rotated so that axis-aligned planes do not get axis-aligned cells.
+fn surface_noise(world: vec3<f32>, pixel_world: f32) -> f32 {
+    let cell = max(u.params.w, 0.5) * max(pixel_world, 1e-9);
+    let level = log2(1.0 / cell);
+    let l0 = floor(level);
+    let t = level - l0;
+    let rot = mat3x3<f32>(
+        vec3<f32>(0.8137, 0.4698, -0.3420),
+        vec3<f32>(-0.4410, 0.8826, 0.1631),
+        vec3<f32>(0.3785, 0.0180, 0.9254),
+    );
+    let x = rot * world;
+    let a = hash3(vec3<i32>(floor(x * exp2(l0))));
+    let b = hash3(vec3<i32>(floor(x * exp2(l0 + 1.0))));
+    let m = mix(a, b, t);
+    let norm = inverseSqrt((1.0 - t) * (1.0 - t) + t * t);
+    return clamp(0.5 + (m - 0.5) * norm, 0.0, 1.0);
 }
 
 fn rotate_in_plane(d: vec3<f32>, n: vec3<f32>, angle: f32) -> vec3<f32> {
     return cos(angle) * d + sin(angle) * cross(n, d);
 }
 
-// N-symmetric field: average the LIC along the N/2 distinct line directions
-// (N = 2: one family of streaks, N = 4: cross-hatch, N = 6: three families).
-fn lic_at(x: vec3<f32>, d0: vec3<f32>, n: vec3<f32>, sym: u32) -> f32 {
-    let len = u.params2.y;
-    let lines = max(sym / 2u, 1u);
-    var acc = 0.0;
-    for (var k = 0u; k < lines; k = k + 1u) {
-        let d = rotate_in_plane(d0, n, f32(k) * 2.0 * PI / f32(max(sym, 1u)));
-        acc = acc + lic_along(x, d, len);
+// Unit screen-space (pixel, y down) direction of the tangent vector `d` at the
+// point with clip coordinates `c`; zero when `d` projects to (almost) a point.
+fn screen_dir(c: vec4<f32>, d: vec3<f32>) -> vec2<f32> {
+    let dc = u.view_proj * vec4<f32>(d, 0.0);
+    let dn = (dc.xy * c.w - c.xy * dc.w) / (c.w * c.w);
+    let px = vec2<f32>(dn.x * u.viewport.x, -dn.y * u.viewport.y);
+    let len = length(px);
+    // |d| = 1; below ~1e-3 of a full-length projection the direction is noise
+    let full = length(vec2<f32>(u.viewport.x, u.viewport.y)) / max(c.w, 1e-9);
+    if (len < 1e-3 * full) {
+        return vec2<f32>(0.0);
     }
-    return acc / f32(lines);
+    return px / len;
 }
 
-// The noise lives on the surface, at a frequency picked from the pixel
-// footprint so a noise cell covers about `u.params.w` pixels at any zoom:
-// the two nearest power-of-two frequencies are blended (like mip levels), so
-// the pattern does not swim while zooming.
-fn lic_field(world: vec3<f32>, field: vec3<f32>, n: vec3<f32>, sym: u32, pixel_world: f32) -> f32 {
-    let cell = max(u.params.w, 0.5) * max(pixel_world, 1e-9);
-    let level = log2(1.0 / cell);
-    let l0 = floor(level);
-    let t = level - l0;
-    let d0 = normalize(field);
-    let a = lic_at(world * exp2(l0), d0, n, sym);
-    let b = lic_at(world * exp2(l0 + 1.0), d0, n, sym);
-    return mix(a, b, t);
+struct FieldOut {
+    // screen directions of line families 0 and 1
+    @location(0) dirs: vec4<f32>,
+    // xy family 2, z surface noise, w view depth (0 = no surface)
+    @location(1) misc: vec4<f32>,
+}
+
+// Pass 1 of the LIC: the G-buffer. Families k = 0 .. N/2 - 1 are the surface
+// directions rotated by k 2pi/N in the face plane, each projected on its own
+// (projection does not commute with rotation).
+@fragment
+fn fs_field(in: VsOut) -> FieldOut {
+    let pixel_world = 0.5 * (length(dpdx(in.world)) + length(dpdy(in.world)));
+    let noise = surface_noise(in.world, pixel_world);
+    let c = u.view_proj * vec4<f32>(in.world, 1.0);
+    var out: FieldOut;
+    let n = in.face_normal;
+    var d0 = vec3<f32>(0.0);
+    if (dot(in.field, in.field) > 1e-12 && dot(n, n) > 1e-12) {
+        d0 = normalize(in.field);
+    }
+    let nn = select(vec3<f32>(0.0, 0.0, 1.0), normalize(n), dot(n, n) > 1e-12);
+    let step = 2.0 * PI / f32(max(u.modes.w, 1u));
+    var e0 = vec2<f32>(0.0);
+    var e1 = vec2<f32>(0.0);
+    var e2 = vec2<f32>(0.0);
+    if (dot(d0, d0) > 0.5) {
+        e0 = screen_dir(c, d0);
+        e1 = screen_dir(c, rotate_in_plane(d0, nn, step));
+        e2 = screen_dir(c, rotate_in_plane(d0, nn, 2.0 * step));
+    }
+    out.dirs = vec4<f32>(e0, e1);
+    out.misc = vec4<f32>(e2, noise, max(c.w, 1e-6));
+    return out;
 }
 
 // ---------------------------------------------------------------- fragment
@@ -274,7 +290,6 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
     let fw_bary = fwidth(in.bary);
     let p = in.uv * u.params.x;
     let pix = 0.5 * (length(dpdx(p)) + length(dpdy(p)));
-    let pixel_world = 0.5 * (length(dpdx(in.world)) + length(dpdy(in.world)));
 
     let geo_n = normalize(select(in.normal, in.face_normal, u.modes.x == 1u));
     let to_eye = normalize(u.camera_pos.xyz - in.world);
@@ -325,7 +340,9 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
 
     // field visualisation
     if (u.flags.x == 1u && u.flags.z == 1u && dot(in.field, in.field) > 1e-12) {
-        let l = lic_field(in.world, in.field, geo_n, u.modes.w, pixel_world);
+        let size = vec2<i32>(textureDimensions(lic_tex));
+        let px = clamp(vec2<i32>(in.clip.xy), vec2<i32>(0), size - vec2<i32>(1));
+        let l = textureLoad(lic_tex, px, 0).r;
         let s = u.params2.x;
         albedo = albedo * mix(1.0, 0.35 + 1.1 * l, s);
     }

@@ -20,6 +20,9 @@ pub const SAMPLE_COUNT: u32 = 4;
 pub const MESH_WGSL: &str = include_str!("../../shaders/mesh.wgsl");
 pub const OVERLAY_WGSL: &str = include_str!("../../shaders/overlay.wgsl");
 pub const BLIT_WGSL: &str = include_str!("../../shaders/blit.wgsl");
+pub const LIC_WGSL: &str = include_str!("../../shaders/lic.wgsl");
+/// Format of the LIC G-buffer (screen directions, noise, depth) and of the LIC result.
+pub const LIC_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
 /// Mirrors `struct Uniforms` in shaders/mesh.wgsl and shaders/overlay.wgsl.
 #[repr(C)]
@@ -38,7 +41,9 @@ pub struct Uniforms {
     pub flags: [u32; 4],
 }
 
-/// Colour + depth targets of one size.
+/// Colour + depth targets of one size, plus the single-sample targets of the
+/// screen-space LIC (G-buffer, its depth, the LIC result) and their bind groups.
+/// Made by [`Renderer::create_target`]; recreate only when the size changes.
 pub struct RenderTarget {
     pub width: u32,
     pub height: u32,
@@ -47,10 +52,32 @@ pub struct RenderTarget {
     /// Resolved colour (COLOR_FORMAT), sampled by the viewport blit and copied by readback.
     pub color: wgpu::Texture,
     pub color_view: wgpu::TextureView,
+    lic: LicTargets,
+}
+
+/// Targets of the LIC passes (one texel per pixel).
+struct LicTargets {
+    /// Screen directions of line families 0 and 1.
+    dirs_view: wgpu::TextureView,
+    /// Family 2, surface noise, view depth.
+    misc_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
+    /// Pass 2 output (r = LIC intensity); kept as a texture so tests can read it.
+    pub result: wgpu::Texture,
+    result_view: wgpu::TextureView,
+    /// Group 1 of the LIC pass (G-buffer).
+    gbuffer_bind_group: wgpu::BindGroup,
+    /// Group 1 of the mesh pass (LIC result).
+    result_bind_group: wgpu::BindGroup,
 }
 
 impl RenderTarget {
-    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> RenderTarget {
+    fn new(
+        device: &wgpu::Device,
+        layouts: &TargetLayouts,
+        width: u32,
+        height: u32,
+    ) -> RenderTarget {
         let width = width.max(1);
         let height = height.max(1);
         let size = wgpu::Extent3d {
@@ -90,15 +117,76 @@ impl RenderTarget {
                 | wgpu::TextureUsages::TEXTURE_BINDING
                 | wgpu::TextureUsages::COPY_SRC,
         );
+        let sampled = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let view = |t: &wgpu::Texture| t.create_view(&Default::default());
+        let dirs = tex("quadcover lic dirs", LIC_FORMAT, 1, sampled);
+        let misc = tex("quadcover lic misc", LIC_FORMAT, 1, sampled);
+        let lic_depth = tex(
+            "quadcover lic depth",
+            DEPTH_FORMAT,
+            1,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        );
+        let result = tex(
+            "quadcover lic result",
+            LIC_FORMAT,
+            1,
+            sampled | wgpu::TextureUsages::COPY_SRC,
+        );
+        let (dirs_view, misc_view, result_view) = (view(&dirs), view(&misc), view(&result));
+        let gbuffer_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("quadcover lic gbuffer bg"),
+            layout: &layouts.gbuffer,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&dirs_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&misc_view),
+                },
+            ],
+        });
+        let result_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("quadcover lic result bg"),
+            layout: &layouts.result,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(&result_view),
+            }],
+        });
         RenderTarget {
             width,
             height,
-            msaa_view: msaa.create_view(&Default::default()),
-            depth_view: depth.create_view(&Default::default()),
-            color_view: color.create_view(&Default::default()),
+            msaa_view: view(&msaa),
+            depth_view: view(&depth),
+            color_view: view(&color),
             color,
+            lic: LicTargets {
+                dirs_view,
+                misc_view,
+                depth_view: view(&lic_depth),
+                result,
+                result_view,
+                gbuffer_bind_group,
+                result_bind_group,
+            },
         }
     }
+
+    /// The LIC result texture (r = intensity, `LIC_FORMAT`) of the last field render.
+    pub fn lic_texture(&self) -> &wgpu::Texture {
+        &self.lic.result
+    }
+}
+
+/// Bind-group layouts the render targets' bind groups are made with.
+struct TargetLayouts {
+    /// Group 1 of the LIC pass: G-buffer textures.
+    gbuffer: wgpu::BindGroupLayout,
+    /// Group 1 of the mesh pass: the LIC result.
+    result: wgpu::BindGroupLayout,
 }
 
 /// Buffers of one uploaded scene. Built once per document change.
@@ -115,6 +203,11 @@ struct GpuScene {
 
 pub struct Renderer {
     mesh_pipeline: wgpu::RenderPipeline,
+    /// LIC pass 1: the mesh into the G-buffer (noise, screen directions, depth).
+    field_pipeline: wgpu::RenderPipeline,
+    /// LIC pass 2: fullscreen streamline convolution.
+    lic_pipeline: wgpu::RenderPipeline,
+    target_layouts: TargetLayouts,
     line_pipeline: wgpu::RenderPipeline,
     glyph_pipeline: wgpu::RenderPipeline,
     mesh_bgl: wgpu::BindGroupLayout,
@@ -151,6 +244,10 @@ impl Renderer {
         let overlay_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("overlay.wgsl"),
             source: wgpu::ShaderSource::Wgsl(OVERLAY_WGSL.into()),
+        });
+        let lic_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("lic.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(LIC_WGSL.into()),
         });
         let uniform_size = NonZeroU64::new(std::mem::size_of::<Uniforms>() as u64);
         let uniform_entry = wgpu::BindGroupLayoutEntry {
@@ -189,8 +286,33 @@ impl Renderer {
             label: Some("quadcover overlay bgl"),
             entries: &[uniform_entry],
         });
+        let texture_entry = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled: false,
+            },
+            count: None,
+        };
+        let target_layouts = TargetLayouts {
+            gbuffer: device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("quadcover lic gbuffer bgl"),
+                entries: &[texture_entry(0), texture_entry(1)],
+            }),
+            result: device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("quadcover lic result bgl"),
+                entries: &[texture_entry(0)],
+            }),
+        };
         let mesh_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("quadcover mesh layout"),
+            bind_group_layouts: &[Some(&mesh_bgl), Some(&target_layouts.result)],
+            immediate_size: 0,
+        });
+        let field_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("quadcover lic field layout"),
             bind_group_layouts: &[Some(&mesh_bgl)],
             immediate_size: 0,
         });
@@ -249,6 +371,73 @@ impl Renderer {
                 entry_point: Some("fs_main"),
                 compilation_options: Default::default(),
                 targets: &opaque_target,
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let lic_targets = [
+            Some(wgpu::ColorTargetState {
+                format: LIC_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+            Some(wgpu::ColorTargetState {
+                format: LIC_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+        ];
+        let field_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("quadcover lic field"),
+            layout: Some(&field_layout),
+            vertex: wgpu::VertexState {
+                module: &mesh_module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: std::mem::size_of::<Vertex>() as u64,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &v_attrs,
+                })],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(depth(true)),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &mesh_module,
+                entry_point: Some("fs_field"),
+                compilation_options: Default::default(),
+                targets: &lic_targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let lic_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("quadcover lic layout"),
+            bind_group_layouts: &[Some(&overlay_bgl), Some(&target_layouts.gbuffer)],
+            immediate_size: 0,
+        });
+        let lic_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("quadcover lic"),
+            layout: Some(&lic_layout),
+            vertex: wgpu::VertexState {
+                module: &lic_module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &lic_module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &lic_targets[..1],
             }),
             multiview_mask: None,
             cache: None,
@@ -337,6 +526,9 @@ impl Renderer {
         };
         Renderer {
             mesh_pipeline,
+            field_pipeline,
+            lic_pipeline,
+            target_layouts,
             line_pipeline,
             glyph_pipeline,
             mesh_bgl,
@@ -398,6 +590,20 @@ impl Renderer {
 
     pub fn has_scene(&self) -> bool {
         self.scene.is_some()
+    }
+
+    /// Creates the render targets for a `width` x `height` image (call again only on resize).
+    pub fn create_target(&self, device: &wgpu::Device, width: u32, height: u32) -> RenderTarget {
+        RenderTarget::new(device, &self.target_layouts, width, height)
+    }
+
+    /// Whether `render` runs the LIC passes with these settings.
+    fn lic_active(&self, settings: &DisplaySettings) -> bool {
+        settings.mode == DisplayMode::Field
+            && self
+                .scene
+                .as_ref()
+                .is_some_and(|s| s.has_field && s.n_vertices > 0)
     }
 
     /// Replaces the image used by [`Pattern::Image`] (RGBA8, sRGB-encoded).
@@ -488,6 +694,9 @@ impl Renderer {
     ) {
         let u = self.uniforms(camera, settings, target.width, target.height);
         queue.write_buffer(&self.uniform_buffer, 0, bytemuck::bytes_of(&u));
+        if self.lic_active(settings) {
+            self.render_lic(encoder, target);
+        }
         let bg = settings.background;
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("quadcover scene"),
@@ -523,6 +732,7 @@ impl Renderer {
         if scene.n_vertices > 0 {
             pass.set_pipeline(&self.mesh_pipeline);
             pass.set_bind_group(0, &self.mesh_bind_group, &[]);
+            pass.set_bind_group(1, &target.lic.result_bind_group, &[]);
             pass.set_vertex_buffer(0, scene.vertices.slice(..));
             pass.draw(0..scene.n_vertices, 0..1);
         }
@@ -542,6 +752,79 @@ impl Renderer {
             pass.set_vertex_buffer(0, buf.slice(..));
             pass.draw(0..6, 0..*n);
         }
+    }
+}
+
+impl Renderer {
+    /// LIC passes 1 and 2 (uniforms already written): the mesh into the
+    /// G-buffer, then the streamline convolution into the LIC result texture.
+    fn render_lic(&self, encoder: &mut wgpu::CommandEncoder, target: &RenderTarget) {
+        let Some(scene) = &self.scene else {
+            return;
+        };
+        let clear = wgpu::Operations {
+            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+            store: wgpu::StoreOp::Store,
+        };
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("quadcover lic gbuffer"),
+                color_attachments: &[
+                    Some(wgpu::RenderPassColorAttachment {
+                        view: &target.lic.dirs_view,
+                        resolve_target: None,
+                        ops: clear,
+                        depth_slice: None,
+                    }),
+                    Some(wgpu::RenderPassColorAttachment {
+                        view: &target.lic.misc_view,
+                        resolve_target: None,
+                        ops: clear,
+                        depth_slice: None,
+                    }),
+                ],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &target.lic.depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                occlusion_query_set: None,
+                timestamp_writes: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.field_pipeline);
+            pass.set_bind_group(0, &self.mesh_bind_group, &[]);
+            pass.set_vertex_buffer(0, scene.vertices.slice(..));
+            pass.draw(0..scene.n_vertices, 0..1);
+        }
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("quadcover lic convolution"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &target.lic.result_view,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color {
+                        r: 0.5,
+                        g: 0.0,
+                        b: 0.0,
+                        a: 1.0,
+                    }),
+                    store: wgpu::StoreOp::Store,
+                },
+                depth_slice: None,
+            })],
+            depth_stencil_attachment: None,
+            occlusion_query_set: None,
+            timestamp_writes: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.lic_pipeline);
+        pass.set_bind_group(0, &self.overlay_bind_group, &[]);
+        pass.set_bind_group(1, &target.lic.gbuffer_bind_group, &[]);
+        pass.draw(0..3, 0..1);
     }
 }
 
@@ -689,7 +972,7 @@ pub fn render_to_rgba(
     width: u32,
     height: u32,
 ) -> image::RgbaImage {
-    let target = RenderTarget::new(device, width, height);
+    let target = renderer.create_target(device, width, height);
     let mut encoder = device.create_command_encoder(&Default::default());
     renderer.render(queue, &mut encoder, &target, camera, settings);
     queue.submit([encoder.finish()]);

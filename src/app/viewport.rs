@@ -104,7 +104,7 @@ impl ViewportResources {
         if ok {
             return;
         }
-        let target = RenderTarget::new(device, width, height);
+        let target = self.renderer.create_target(device, width, height);
         self.blit_bind_group = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("quadcover blit bg"),
             layout: &self.blit_bgl,
