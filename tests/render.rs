@@ -6,7 +6,9 @@ use std::path::PathBuf;
 
 use glam::{DVec2, DVec3, Vec3};
 use quadcover::app::camera::OrbitCamera;
-use quadcover::app::document::{DEFAULT_MESH_NAME, DEFAULT_MESH_OBJ, load_bytes};
+use quadcover::app::document::{
+    DEFAULT_MESH_NAME, DEFAULT_MESH_OBJ, Document, load_bytes, load_path,
+};
 use quadcover::app::render::Offscreen;
 use quadcover::app::scene::{Glyph, LineSegment, SceneData, singularity_color};
 use quadcover::app::settings::{DisplayMode, DisplaySettings, Pattern, Shading};
@@ -453,4 +455,262 @@ fn image_pattern_uses_the_user_texture() {
         reddish > 2000 && bluish > 2000,
         "red {reddish}, blue {bluish}"
     );
+}
+
+/// Mean-free luminance of the interior (margin cut off), row-major, with its size.
+fn centred_luminance(img: &image::RgbaImage, margin: u32) -> (Vec<f32>, usize, usize) {
+    let (w, h) = img.dimensions();
+    let (iw, ih) = ((w - 2 * margin) as usize, (h - 2 * margin) as usize);
+    let mut l = Vec::with_capacity(iw * ih);
+    for y in margin..h - margin {
+        for x in margin..w - margin {
+            l.push(luminance(img.get_pixel(x, y)));
+        }
+    }
+    let mean = l.iter().sum::<f32>() / l.len() as f32;
+    for v in &mut l {
+        *v -= mean;
+    }
+    (l, iw, ih)
+}
+
+/// Normalised autocorrelation of the image at the lag `r` pixels along the
+/// image direction `angle` (radians, y down), averaged over lags 3..=r.
+fn directional_autocorrelation(l: &[f32], w: usize, h: usize, angle: f32, r: usize) -> f32 {
+    let var: f32 = l.iter().map(|v| v * v).sum::<f32>() / l.len() as f32;
+    let mut total = 0.0;
+    let mut count = 0;
+    for lag in 3..=r {
+        let dx = (angle.cos() * lag as f32).round() as isize;
+        let dy = (angle.sin() * lag as f32).round() as isize;
+        let mut acc = 0.0f64;
+        let mut n = 0usize;
+        for y in 0..h as isize {
+            for x in 0..w as isize {
+                let (x2, y2) = (x + dx, y + dy);
+                if x2 < 0 || y2 < 0 || x2 >= w as isize || y2 >= h as isize {
+                    continue;
+                }
+                acc += (l[y as usize * w + x as usize] * l[y2 as usize * w + x2 as usize]) as f64;
+                n += 1;
+            }
+        }
+        total += (acc / n.max(1) as f64) as f32 / var.max(1e-12);
+        count += 1;
+    }
+    total / count as f32
+}
+
+/// Histogram of gradient orientations mod pi (weighted by squared magnitude), `bins` bins.
+fn gradient_orientation_histogram(img: &image::RgbaImage, margin: u32, bins: usize) -> Vec<f64> {
+    let (w, h) = img.dimensions();
+    let l = |x: u32, y: u32| luminance(img.get_pixel(x, y)) as f64;
+    let mut hist = vec![0.0; bins];
+    for y in margin..h - margin {
+        for x in margin..w - margin {
+            let gx = l(x + 1, y) - l(x - 1, y);
+            let gy = l(x, y + 1) - l(x, y - 1);
+            let a = gy.atan2(gx).rem_euclid(std::f64::consts::PI);
+            let b = ((a / std::f64::consts::PI * bins as f64) as usize).min(bins - 1);
+            hist[b] += gx * gx + gy * gy;
+        }
+    }
+    hist
+}
+
+/// Histogram mass within `half_width` of the orientation `angle` (mod pi).
+fn mass_near(hist: &[f64], angle: f32, half_width: f32) -> f64 {
+    let bins = hist.len();
+    (0..bins)
+        .filter(|&b| {
+            let c = (b as f32 + 0.5) / bins as f32 * std::f32::consts::PI;
+            angle_diff_mod_pi(c, angle) <= half_width
+        })
+        .map(|b| hist[b])
+        .sum()
+}
+
+/// Contrast (standard deviation of luminance) and count of black pixels.
+fn contrast_and_black(img: &image::RgbaImage, margin: u32) -> (f32, usize) {
+    let (l, _, _) = centred_luminance(img, margin);
+    let std = (l.iter().map(|v| v * v).sum::<f32>() / l.len() as f32).sqrt();
+    let black = img
+        .pixels()
+        .filter(|p| p[0] < 3 && p[1] < 3 && p[2] < 3)
+        .count();
+    (std, black)
+}
+
+#[test]
+fn lic_of_constant_cross_field_shows_both_directions() {
+    let Some(mut off) = offscreen() else { return };
+    let a = 20f64.to_radians();
+    let dir = DVec3::new(a.cos(), a.sin(), 0.0);
+    let render = |off: &mut Offscreen, n: u32| {
+        let mut scene = flat_square(8, |p| p);
+        scene.set_face_field(&vec![dir; scene.n_faces()], n);
+        off.upload(&scene);
+        let mut cam = top_camera(&scene);
+        cam.zoom(0.6);
+        let settings = DisplaySettings {
+            mode: DisplayMode::Field,
+            lic_strength: 1.0,
+            base_color: [0.55, 0.55, 0.55],
+            ..plain_settings()
+        };
+        off.render(&cam, &settings, 384, 384)
+    };
+    // image directions (y down) of the field's lines
+    let e0 = (-a as f32).rem_euclid(std::f32::consts::PI);
+    let e1 = (e0 + std::f32::consts::FRAC_PI_2).rem_euclid(std::f32::consts::PI);
+    let diag = |k: f32| (e0 + k * std::f32::consts::FRAC_PI_4).rem_euclid(std::f32::consts::PI);
+    let margin = 40;
+    let mut corr_n2 = [0.0; 2];
+    for n in [2u32, 4, 6] {
+        let img = render(&mut off, n);
+        save(&img, &format!("lic_constant_n{n}.png"));
+        let (contrast, black) = contrast_and_black(&img, margin);
+        assert!(
+            contrast > 0.05,
+            "N = {n}: LIC nearly uniform (std {contrast:.3})"
+        );
+        assert_eq!(black, 0, "N = {n}: black pixels (NaN?)");
+        let (l, w, h) = centred_luminance(&img, margin);
+        let along = |t: f32| directional_autocorrelation(&l, w, h, t, 8);
+        let (c0, c1, cd1, cd3) = (along(e0), along(e1), along(diag(1.0)), along(diag(3.0)));
+        let hist = gradient_orientation_histogram(&img, margin, 36);
+        let total: f64 = hist.iter().sum();
+        let width = 10f32.to_radians();
+        let (m0, m1) = (
+            mass_near(&hist, e0, width) / total,
+            mass_near(&hist, e1, width) / total,
+        );
+        let (md1, md3) = (
+            mass_near(&hist, diag(1.0), width) / total,
+            mass_near(&hist, diag(3.0), width) / total,
+        );
+        eprintln!(
+            "N = {n}: contrast {contrast:.3}; autocorrelation along e0 {c0:.3}, e1 {c1:.3}, diagonals {cd1:.3} {cd3:.3}; \
+             gradient mass near e0 {m0:.3}, e1 {m1:.3}, diagonals {md1:.3} {md3:.3}"
+        );
+        match n {
+            2 => corr_n2 = [c0, c1],
+            4 => {
+                // streaks along both field directions, none along the diagonals
+                for (c, name) in [(c0, "e0"), (c1, "e1")] {
+                    assert!(c > 0.2, "N = 4: weak streaks along {name}: {c:.3}");
+                    assert!(
+                        c > 2.0 * cd1.max(cd3),
+                        "N = 4: streaks along {name} ({c:.3}) not above the diagonals ({cd1:.3}, {cd3:.3})"
+                    );
+                }
+                // gradient orientations peak at both directions, about 90 deg apart
+                for (m, name) in [(m0, "e0"), (m1, "e1")] {
+                    assert!(
+                        m > 1.5 * md1.max(md3),
+                        "N = 4: gradient mass near {name} {m:.3} vs diagonals {md1:.3} {md3:.3}"
+                    );
+                }
+            }
+            _ => {
+                // N = 6: streaks along e0 and at +-60 deg, weaker at 90 deg from e0
+                let sixty = |k: f32| {
+                    (e0 + k * std::f32::consts::FRAC_PI_3).rem_euclid(std::f32::consts::PI)
+                };
+                let (s1, s2) = (along(sixty(1.0)), along(sixty(2.0)));
+                eprintln!(
+                    "N = 6: autocorrelation along e0 {c0:.3}, +60 {s1:.3}, +120 {s2:.3}, +90 {c1:.3}"
+                );
+                for (c, name) in [(c0, "e0"), (s1, "e0 + 60"), (s2, "e0 + 120")] {
+                    assert!(c > 0.15, "N = 6: weak streaks along {name}: {c:.3}");
+                    assert!(
+                        c > 1.3 * c1,
+                        "N = 6: streaks along {name} {c:.3} not above +90 {c1:.3}"
+                    );
+                }
+            }
+        }
+    }
+    // N = 2 shows one family only: nothing along the perpendicular
+    assert!(
+        corr_n2[0] > 2.0 * corr_n2[1].max(0.05),
+        "N = 2: along {:.3}, across {:.3}",
+        corr_n2[0],
+        corr_n2[1]
+    );
+}
+
+#[test]
+fn lic_of_computed_bunny_fields() {
+    let Some(mut off) = offscreen() else { return };
+    let path = PathBuf::from("/work/shared/meshes/bunny.obj");
+    if !path.exists() {
+        eprintln!("skipping: {} not found", path.display());
+        return;
+    }
+    for (n, symmetry) in [
+        (2, quadcover::field::Symmetry::Two),
+        (4, quadcover::field::Symmetry::Four),
+        (6, quadcover::field::Symmetry::Six),
+    ] {
+        let mut doc = Document::default();
+        doc.set_loaded(load_path(&path).expect("bunny loads"));
+        let params = quadcover::field::FieldParams {
+            symmetry,
+            ..Default::default()
+        };
+        let result = quadcover::field::compute_field(doc.mesh.as_ref().unwrap(), &params)
+            .expect("bunny field");
+        doc.set_frame_field(result);
+        let scene = doc.scene().expect("scene").clone();
+        assert!(scene.has_field && scene.symmetry == n);
+        off.upload(&scene);
+        let mut cam = OrbitCamera::default();
+        cam.fit(scene.bbox);
+        cam.zoom(0.55);
+        let field = DisplaySettings {
+            mode: DisplayMode::Field,
+            show_singularities: false,
+            ..DisplaySettings::default()
+        };
+        let (w, h) = (640, 480);
+        let lic = off.render(&cam, &field, w, h);
+        save(&lic, &format!("bunny_lic_n{n}.png"));
+        let shaded = off.render(
+            &cam,
+            &DisplaySettings {
+                show_singularities: false,
+                ..DisplaySettings::default()
+            },
+            w,
+            h,
+        );
+        // the LIC modulates the surface: visible difference and local contrast
+        let bg = field.background;
+        let mut covered = 0usize;
+        let mut diff = 0.0f64;
+        for (p, q) in lic.pixels().zip(shaded.pixels()) {
+            if [q[0], q[1], q[2]] != bg {
+                covered += 1;
+                diff += (luminance(p) - luminance(q)).abs() as f64;
+            }
+        }
+        let mean_diff = diff / covered.max(1) as f64;
+        let black = lic
+            .pixels()
+            .filter(|p| p[0] < 3 && p[1] < 3 && p[2] < 3)
+            .count();
+        eprintln!(
+            "bunny N = {n}: {covered} covered pixels, mean |LIC - shaded| {mean_diff:.3}, {black} black"
+        );
+        assert!(covered > (w * h) as usize / 10, "bunny barely visible");
+        assert!(
+            mean_diff > 0.04,
+            "N = {n}: LIC barely visible ({mean_diff:.3})"
+        );
+        assert!(
+            black < (w * h) as usize / 1000,
+            "N = {n}: {black} black pixels"
+        );
+    }
 }
