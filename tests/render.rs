@@ -674,8 +674,11 @@ fn lic_of_computed_bunny_fields() {
             ..DisplaySettings::default()
         };
         let (w, h) = (640, 480);
+        let t0 = std::time::Instant::now();
         let lic = off.render(&cam, &field, w, h);
+        let t_lic = t0.elapsed();
         save(&lic, &format!("bunny_lic_n{n}.png"));
+        let t0 = std::time::Instant::now();
         let shaded = off.render(
             &cam,
             &DisplaySettings {
@@ -684,6 +687,10 @@ fn lic_of_computed_bunny_fields() {
             },
             w,
             h,
+        );
+        eprintln!(
+            "bunny N = {n}: {w} x {h} render with LIC {t_lic:?}, shaded {:?}",
+            t0.elapsed()
         );
         // the LIC modulates the surface: visible difference and local contrast
         let bg = field.background;
