@@ -393,3 +393,18 @@ fn pure_quad_remesh_of_shared_meshes_has_only_quads() {
         assert_eq!(euler(&r), mesh.euler_characteristic(), "{name}");
     }
 }
+
+/// A mistyped scale must give a clear error at once, not exhaust memory making grid points.
+#[test]
+fn absurdly_fine_grid_is_refused_before_any_work() {
+    let mesh = generate::grid(4, 4, 1.0, 1.0);
+    let uv = vertex_uvs(&mesh, |p| [p.x * 1e9, p.y * 1e9]);
+    let t = std::time::Instant::now();
+    let err = extract(&mesh, &uv, 4, &ExtractOptions::default()).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("grid would have about 1.000e18 points"),
+        "{err}"
+    );
+    assert!(t.elapsed().as_secs() < 5, "took {:?}", t.elapsed());
+}

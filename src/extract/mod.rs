@@ -39,6 +39,9 @@ pub struct ExtractOptions {
     pub max_face_sides: usize,
     /// Split every non-quad polygon of a quad extraction into quads (1:4 style midpoint split).
     pub split_to_quads: bool,
+    /// Refuse grids finer than this many points (estimated from the UV area before any point
+    /// is made), instead of exhausting memory on a mistyped scale.
+    pub max_points: usize,
 }
 
 impl Default for ExtractOptions {
@@ -47,6 +50,7 @@ impl Default for ExtractOptions {
             snap_tolerance: 1e-4,
             max_face_sides: 32,
             split_to_quads: false,
+            max_points: 50_000_000,
         }
     }
 }
@@ -85,6 +89,11 @@ pub enum ExtractError {
     },
     #[error("the parameterization covers no grid point: scale the UVs up")]
     Empty,
+    #[error(
+        "the grid would have about {estimated:.3e} points (limit {limit}): the UVs are scaled far \
+         too large for this mesh (grid size too small)"
+    )]
+    TooFine { estimated: f64, limit: usize },
 }
 
 /// Extracts a quad (N = 4), triangle (N = 6) or stripe (N = 2) mesh from per-corner UVs
@@ -109,6 +118,22 @@ pub fn extract(
         .position(|p| !p[0].is_finite() || !p[1].is_finite())
     {
         return Err(ExtractError::NonFinite(c));
+    }
+    // Grid points ≈ UV area / lattice cell area (1 for Z², √3/2 for G6).
+    let uv_area: f64 = uv
+        .chunks_exact(3)
+        .map(|t| {
+            let (a, b, c) = (t[0], t[1], t[2]);
+            0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])).abs()
+        })
+        .sum();
+    let cell = if symmetry == 6 { 0.75f64.sqrt() } else { 1.0 };
+    let estimated = uv_area / cell;
+    if !(estimated <= opts.max_points as f64) {
+        return Err(ExtractError::TooFine {
+            estimated,
+            limit: opts.max_points,
+        });
     }
     let param = lattice::Param::new(mesh, uv, symmetry, opts.snap_tolerance)?;
     let mut out = if symmetry == 2 {
