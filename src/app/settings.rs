@@ -104,7 +104,7 @@ pub struct DisplaySettings {
     pub line_width: f32,
     /// Size of a LIC noise cell on screen, pixels.
     pub lic_cell_px: f32,
-    /// Streak length in noise cells.
+    /// Streamline half-length (each way from the pixel) in noise cells; capped at 32 px.
     pub lic_length: f32,
     /// 0..1 blend of the LIC over the shading.
     pub lic_strength: f32,
