@@ -26,9 +26,18 @@ fn out_dir() -> PathBuf {
 }
 
 fn harness(recent: &Path, open: Option<PathBuf>) -> Harness<'static, EditorApp> {
+    harness_with(recent, open, false)
+}
+
+fn harness_with(
+    recent: &Path,
+    open: Option<PathBuf>,
+    auto_solve: bool,
+) -> Harness<'static, EditorApp> {
     let opts = EditorOptions {
         open,
         recent_store: Some(recent.to_path_buf()),
+        auto_solve,
     };
     let builder = Harness::builder().with_size(egui::vec2(1100.0, 720.0));
     let builder = if gpu_available() {
@@ -358,4 +367,24 @@ impl egui::DroppedFile for Dropped {
     fn bytes(&self) -> Result<Vec<u8>, String> {
         std::fs::read(&self.0).map_err(|e| e.to_string())
     }
+}
+
+/// As the editor starts (`run_editor`): the mesh loads, then field and QuadCover run in the
+/// background without a click, and the parameterization is shown as its pattern.
+#[test]
+fn on_start_field_and_parameterization_are_computed_in_the_background() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness_with(
+        &dir.path().join("recent.txt"),
+        Some(shared_mesh("kitten.obj")),
+        true,
+    );
+    // The first frames come back at once while the jobs run.
+    h.run_steps(2);
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    assert!(h.state().document.frame_field.is_some());
+    assert!(h.state().document.has_param());
+    assert_eq!(h.state().document.display.mode, DisplayMode::Pattern);
+    h.get_by_label_contains("Parameterization: ");
 }

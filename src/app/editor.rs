@@ -23,6 +23,8 @@ pub struct EditorOptions {
     pub open: Option<PathBuf>,
     /// Where the recent-files list is kept; `None` keeps it in memory only.
     pub recent_store: Option<PathBuf>,
+    /// After each load, compute the field and the parameterization in the background.
+    pub auto_solve: bool,
 }
 
 /// Default location of the recent-files list.
@@ -53,6 +55,12 @@ pub struct EditorApp {
     pending_pattern_image: Option<image::RgbaImage>,
     /// Symmetry chosen for the next field computation.
     pub symmetry: u32,
+    /// Run field + QuadCover after each load (see [`EditorOptions::auto_solve`]).
+    auto_solve: bool,
+    /// The running field job was started by `auto_solve`: parameterize when it finishes.
+    auto_param_pending: bool,
+    /// For jobs started while polling (they repaint the window when done).
+    ctx: Option<egui::Context>,
 }
 
 impl EditorApp {
@@ -88,6 +96,9 @@ impl EditorApp {
             has_wgpu,
             pending_pattern_image: None,
             symmetry: 4,
+            auto_solve: options.auto_solve,
+            auto_param_pending: false,
+            ctx: Some(cc.egui_ctx.clone()),
         };
         let ctx = cc.egui_ctx.clone();
         match options.open {
@@ -287,6 +298,10 @@ impl EditorApp {
                         job.started.elapsed().as_secs_f32()
                     );
                     self.document.set_loaded(*doc);
+                    if self.auto_solve {
+                        self.start_field(self.ctx.clone(), self.symmetry);
+                        self.auto_param_pending = true;
+                    }
                     self.fit_pending = true;
                     if let Some(p) = path {
                         self.push_recent(p);
@@ -304,6 +319,9 @@ impl EditorApp {
                 }
                 Ok(JobOutput::FieldComputed(r)) => {
                     self.document.set_frame_field(*r);
+                    if std::mem::take(&mut self.auto_param_pending) {
+                        self.start_parameterize(self.ctx.clone());
+                    }
                     self.document.display.mode = DisplayMode::Field;
                     self.status = format!(
                         "{} done in {:.2} s",

@@ -36,6 +36,7 @@ pub fn run_editor(path: Option<std::path::PathBuf>) -> eframe::Result<()> {
                 EditorOptions {
                     open: path,
                     recent_store: editor::default_recent_store(),
+                    auto_solve: true,
                 },
             )))
         }),

@@ -129,7 +129,7 @@ pub fn extract(
         .sum();
     let cell = if symmetry == 6 { 0.75f64.sqrt() } else { 1.0 };
     let estimated = uv_area / cell;
-    if !(estimated <= opts.max_points as f64) {
+    if estimated.is_nan() || estimated > opts.max_points as f64 {
         return Err(ExtractError::TooFine {
             estimated,
             limit: opts.max_points,
