@@ -40,7 +40,7 @@ struct Uniforms {
     viewport: vec4<f32>,
     // x shading (0 smooth, 1 flat), y pattern id, z wireframe on, w symmetry N
     modes: vec4<u32>,
-    // x lic on, y has uv, z has field, w unused
+    // x lic on, y has uv, z has field, w stripe twist n | k << 16 (sec. 4.2)
     flags: vec4<u32>,
 }
 
@@ -310,7 +310,14 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
             case 2u: { fl = pattern_checker(p, pix); }
             case 3u: { fl = pattern_triangles(p, pix, w); }
             case 4u: { fl = pattern_hexagons(p, pix, w); }
-            case 5u: { fl = pattern_stripes(p, pix); }
+            case 5u: {
+                // twisted stripes: texture space mapped by (n -k; k n), which keeps Z^2 and
+                // commutes with the half turn, so the stripes stay seamless (thesis sec. 4.2)
+                let tn = f32(u.flags.w & 0xffffu);
+                let tk = f32(u.flags.w >> 16u);
+                let q = vec2<f32>(tn * p.x - tk * p.y, tk * p.x + tn * p.y);
+                fl = pattern_stripes(q, pix * length(vec2<f32>(tn, tk)));
+            }
             case 6u: { fl = pattern_octagon_square(p, pix, w); }
             case 7u: {
                 let t = textureSampleGrad(pattern_tex, pattern_sampler, p, dpdx(p), dpdy(p));

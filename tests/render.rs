@@ -331,6 +331,55 @@ fn patterns_are_invariant_under_their_symmetry_group() {
     }
 }
 
+/// Twisted stripes (thesis sec. 4.2, texture mapped by (n −k; k n)) stay invariant under the
+/// half turn and Z² translations, and (1, 1) turns the stripes by 45°.
+#[test]
+fn twisted_stripes_are_seamless_and_turned() {
+    let Some(mut off) = offscreen() else { return };
+    let k = 5.3;
+    let base = flat_square(8, |p| (p - 0.5) * k);
+    let moved = flat_square(8, |p| -(p - 0.5) * k + DVec2::new(3.0, -1.0));
+    let cam = top_camera(&base);
+    let mut orientation = Vec::new();
+    for twist in [[1, 0], [1, 1], [2, 1]] {
+        let settings = DisplaySettings {
+            mode: DisplayMode::Pattern,
+            pattern: Pattern::Stripes,
+            stripe_twist: twist,
+            ..plain_settings()
+        };
+        off.upload(&base);
+        let a = off.render(&cam, &settings, 256, 256);
+        off.upload(&moved);
+        let b = off.render(&cam, &settings, 256, 256);
+        save(
+            &a,
+            &format!("pattern_stripes_twist_{}_{}.png", twist[0], twist[1]),
+        );
+        let diff: f64 = a
+            .pixels()
+            .zip(b.pixels())
+            .map(|(p, q)| {
+                (0..3)
+                    .map(|c| p[c].abs_diff(q[c]) as u64)
+                    .max()
+                    .unwrap_or(0) as f64
+            })
+            .sum::<f64>()
+            / (a.width() * a.height()) as f64;
+        assert!(
+            diff < 1.5,
+            "twist {twist:?}: not seamless, mean diff {diff:.2}"
+        );
+        orientation.push(structure_orientation(&a, 40).0);
+    }
+    let turn = angle_diff_mod_pi(orientation[0], orientation[1]).to_degrees();
+    assert!(
+        (turn - 45.0).abs() < 6.0,
+        "twist (1, 1) turned the stripes by {turn:.1} degrees"
+    );
+}
+
 #[test]
 fn overlays_and_field_on_default_mesh() {
     let Some(mut off) = offscreen() else { return };

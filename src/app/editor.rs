@@ -620,7 +620,16 @@ impl EditorApp {
                 egui::Slider::new(&mut d.pattern_scale, 0.05..=20.0)
                     .logarithmic(true)
                     .text("Pattern scale"),
-            );
+            )
+            .on_hover_text("Whole numbers keep the seams invisible; other values are a preview");
+            if d.pattern == Pattern::Stripes {
+                ui.horizontal(|ui| {
+                    ui.add(egui::DragValue::new(&mut d.stripe_twist[0]).range(1..=12));
+                    ui.add(egui::DragValue::new(&mut d.stripe_twist[1]).range(0..=12));
+                    ui.label("Stripe twist (n, k)")
+                        .on_hover_text("Texture mapped by (n −k; k n), thesis sec. 4.2: (1, 1) turns the stripes by 45°");
+                });
+            }
             ui.add(egui::Slider::new(&mut d.line_width, 0.5..=4.0).text("Line width (px)"));
             ui.add(egui::Slider::new(&mut d.lic_strength, 0.0..=1.0).text("LIC strength"));
             ui.add(

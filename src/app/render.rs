@@ -678,7 +678,9 @@ impl Renderer {
                 (settings.mode == DisplayMode::Field) as u32,
                 has_uv as u32,
                 has_field as u32,
-                0,
+                // twisted stripes (n, k), 16 bits each
+                (settings.stripe_twist[0].clamp(1, 0xffff))
+                    | (settings.stripe_twist[1].min(0xffff) << 16),
             ],
         }
     }

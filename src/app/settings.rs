@@ -100,6 +100,10 @@ pub struct DisplaySettings {
     pub pattern: Pattern,
     /// Pattern cells per parameter unit.
     pub pattern_scale: f32,
+    /// Twisted stripes (thesis sec. 4.2): the stripe texture is drawn at (n u − k v, k u + n v),
+    /// still invariant under Z² translations and the 180° turn, so seams stay invisible.
+    /// (1, 0) is plain stripes; (1, 1) turns them by 45°.
+    pub stripe_twist: [u32; 2],
     /// Line width of patterns and wireframe, pixels.
     pub line_width: f32,
     /// Size of a LIC noise cell on screen, pixels.
@@ -126,6 +130,7 @@ impl Default for DisplaySettings {
             wireframe: false,
             pattern: Pattern::QuadGrid,
             pattern_scale: 1.0,
+            stripe_twist: [1, 0],
             line_width: 1.2,
             lic_cell_px: 2.5,
             lic_length: 8.0,
