@@ -8,7 +8,8 @@ use std::time::Instant;
 use clap::Args;
 
 use super::CliError;
-use crate::field::{FieldParams, compute_field};
+use crate::extract::{ExtractOptions, remesh_report};
+use crate::field::{Density, FieldParams, Symmetry, compute_field};
 use crate::load::load_mesh;
 use crate::mesh::TriMesh;
 use crate::mesh::generate::subdivide;
@@ -99,6 +100,79 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
         stages(&mut rows, &name, &mesh)?;
     }
     print_table(&rows);
+    remesh_comparison(args)?;
+    Ok(())
+}
+
+/// Remesh quality with default settings next to the thesis's tables 5.1 (QuadCover bunny:
+/// 6535 vertices, 37 irregular, RSD edge 18.2 %, RSD angle 14.8 %) and 5.2 (HexCover triangle
+/// remeshes: RSD edge 10.5–13.9 %, RSD angle 8.5–11.4 %).
+fn remesh_comparison(args: &BenchArgs) -> Result<(), CliError> {
+    println!();
+    println!(
+        "{:<28} {:>8} {:>10} {:>18} {:>12} {:>11} {:>8}",
+        "remesh (default settings)",
+        "vertices",
+        "irregular",
+        "non-regular faces",
+        "RSD edge",
+        "RSD angle",
+        "patched"
+    );
+    println!(
+        "{:<28} {:>8} {:>10} {:>18} {:>12} {:>11} {:>8}",
+        "thesis 5.1 bunny QuadCover", 6535, 37, "-", "18.2 %", "14.8 %", "-"
+    );
+    println!(
+        "{:<28} {:>8} {:>10} {:>18} {:>12} {:>11} {:>8}",
+        "thesis 5.2 HexCover", "-", "-", "-", "10.5-13.9 %", "8.5-11.4 %", "-"
+    );
+    let cases: [(&str, u32, bool); 6] = [
+        ("bunny.obj", 4, false),
+        ("bunny.obj", 4, true),
+        ("bunny.obj", 6, false),
+        ("fertility.obj", 6, false),
+        ("kitten.obj", 6, false),
+        ("fandisk.obj", 4, false),
+    ];
+    for (file, n, pure_quad) in cases {
+        let mesh = load_mesh(&args.meshes.join(file))?.mesh;
+        let params = FieldParams {
+            symmetry: Symmetry::from_n(n)?,
+            density: Density::TargetVertices(6500),
+            ..Default::default()
+        };
+        let field = compute_field(&mesh, &params)?.field;
+        let opts = ParamOptions {
+            pure_quad,
+            ..Default::default()
+        };
+        let qc = QuadCover::new(&mesh, n as usize, &field.matchings, opts)?;
+        let p = qc.solve(&mesh, &field.frames)?;
+        let (_, q) = remesh_report(&mesh, &p.uv, n as u8, &ExtractOptions::default())?;
+        let regular_sides = if n == 6 { 3 } else { 4 };
+        let other: usize = q
+            .faces_by_sides
+            .iter()
+            .filter(|(sides, _)| **sides != regular_sides)
+            .map(|(_, c)| c)
+            .sum();
+        let label = format!(
+            "{} N={n}{}",
+            file.trim_end_matches(".obj"),
+            if pure_quad { " pure-quad" } else { "" }
+        );
+        println!(
+            "{:<28} {:>8} {:>10} {:>18} {:>10.1} % {:>9.1} % {:>8}",
+            label,
+            q.vertices,
+            q.irregular_vertices,
+            other,
+            100.0 * q.rsd_edge,
+            100.0 * q.rsd_angle,
+            q.patched_places
+        );
+    }
     Ok(())
 }
 
