@@ -442,58 +442,53 @@ impl Renderer {
             multiview_mask: None,
             cache: None,
         });
-        let l_attrs = line_attrs();
-        let line_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("quadcover lines"),
-            layout: Some(&overlay_layout),
-            vertex: wgpu::VertexState {
-                module: &overlay_module,
-                entry_point: Some("vs_line"),
-                compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: std::mem::size_of::<LineSegment>() as u64,
-                    step_mode: wgpu::VertexStepMode::Instance,
-                    attributes: &l_attrs,
-                })],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(depth(false)),
-            multisample,
-            fragment: Some(wgpu::FragmentState {
-                module: &overlay_module,
-                entry_point: Some("fs_line"),
-                compilation_options: Default::default(),
-                targets: &blend_target,
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
-        let g_attrs = glyph_attrs();
-        let glyph_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("quadcover glyphs"),
-            layout: Some(&overlay_layout),
-            vertex: wgpu::VertexState {
-                module: &overlay_module,
-                entry_point: Some("vs_glyph"),
-                compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: std::mem::size_of::<Glyph>() as u64,
-                    step_mode: wgpu::VertexStepMode::Instance,
-                    attributes: &g_attrs,
-                })],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(depth(false)),
-            multisample,
-            fragment: Some(wgpu::FragmentState {
-                module: &overlay_module,
-                entry_point: Some("fs_glyph"),
-                compilation_options: Default::default(),
-                targets: &blend_target,
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        // Lines and glyphs: instanced quads expanded in the vertex shader, blended on top.
+        let overlay_pipeline =
+            |label: &str,
+             vs: &str,
+             fs: &str,
+             stride: usize,
+             attributes: &[wgpu::VertexAttribute]| {
+                device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some(label),
+                    layout: Some(&overlay_layout),
+                    vertex: wgpu::VertexState {
+                        module: &overlay_module,
+                        entry_point: Some(vs),
+                        compilation_options: Default::default(),
+                        buffers: &[Some(wgpu::VertexBufferLayout {
+                            array_stride: stride as u64,
+                            step_mode: wgpu::VertexStepMode::Instance,
+                            attributes,
+                        })],
+                    },
+                    primitive: wgpu::PrimitiveState::default(),
+                    depth_stencil: Some(depth(false)),
+                    multisample,
+                    fragment: Some(wgpu::FragmentState {
+                        module: &overlay_module,
+                        entry_point: Some(fs),
+                        compilation_options: Default::default(),
+                        targets: &blend_target,
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                })
+            };
+        let line_pipeline = overlay_pipeline(
+            "quadcover lines",
+            "vs_line",
+            "fs_line",
+            std::mem::size_of::<LineSegment>(),
+            &line_attrs(),
+        );
+        let glyph_pipeline = overlay_pipeline(
+            "quadcover glyphs",
+            "vs_glyph",
+            "fs_glyph",
+            std::mem::size_of::<Glyph>(),
+            &glyph_attrs(),
+        );
 
         let uniform_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("quadcover uniforms"),
