@@ -43,6 +43,11 @@ pub struct SolveArgs {
     /// Fraction of the most reliable curvature directions kept as constraints.
     #[arg(long)]
     pub reliable_fraction: Option<f64>,
+    /// Neighbour-averaging passes over the shape operators before the curvature directions are
+    /// taken (default 5; 0 = the thesis's eq. 3.2 as is). More passes, fewer singularities on
+    /// noisy scans.
+    #[arg(long)]
+    pub curvature_smoothing: Option<usize>,
     /// Round gaps to 2Z² so that singularities land on integer grid points (N = 2, 4).
     #[arg(long)]
     pub pure_quad: bool,
@@ -214,6 +219,9 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             }
             if let Some(r) = args.reliable_fraction {
                 params.reliable_fraction = r;
+            }
+            if let Some(c) = args.curvature_smoothing {
+                params.curvature_smoothing = c;
             }
             if let Some(d) = density {
                 params.density = d;
