@@ -698,3 +698,89 @@ fn bench_bunny_and_subdivided() {
         m = generate::subdivide(&m);
     }
 }
+
+/// Sec. 3.3: cancelling close opposite singularity pairs removes them in pairs, keeps the index
+/// theorem, and leaves no opposite pair closer than the radius.
+#[test]
+fn close_opposite_singularities_are_cancelled_in_pairs() {
+    let Some(mesh) = load("max-planck.obj") else {
+        return;
+    };
+    let run = |within: f64| {
+        compute_field(
+            &mesh,
+            &FieldParams {
+                cancel_pairs_within: within,
+                ..params(Symmetry::Four)
+            },
+        )
+        .unwrap()
+    };
+    let (plain, cancelled) = (run(0.0), run(1.0));
+    let (a, b) = (
+        plain.indices.singularities.len(),
+        cancelled.indices.singularities.len(),
+    );
+    println!("max-planck N=4: {a} singularities, {b} after cancelling close pairs");
+    assert!(b < a && (a - b) % 2 == 0, "{a} -> {b}");
+    assert_eq!(
+        cancelled.indices.interior_sum_k,
+        plain.indices.interior_sum_k
+    );
+    assert_eq!(
+        cancelled.indices.interior_sum_k,
+        4 * mesh.euler_characteristic()
+    );
+    let s = &cancelled.indices.singularities;
+    for i in 0..s.len() {
+        for j in i + 1..s.len() {
+            if s[i].k + s[j].k == 0 {
+                let d = (mesh.position(s[i].vertex) - mesh.position(s[j].vertex)).length();
+                assert!(d >= cancelled.grid_size, "pair {i}, {j} left {d} apart");
+            }
+        }
+    }
+    // A cancelled pair's curl stays behind as residual twist on the edges around where it was
+    // (the local step of QuadCover removes it); elsewhere matchings stay the closest ones.
+    let removed: Vec<glam::DVec3> = plain
+        .indices
+        .singularities
+        .iter()
+        .filter(|p| !s.iter().any(|q| q.vertex == p.vertex))
+        .map(|p| mesh.position(p.vertex))
+        .collect();
+    let twisted = twisted_edges(&mesh, &cancelled.field);
+    println!("{} edges twisted past 45 degrees", twisted.len());
+    assert!(twisted.len() <= a - b, "{} twisted edges", twisted.len());
+    for e in twisted {
+        let p = mesh.position(mesh.edge_vertices(e)[0]);
+        let near = removed
+            .iter()
+            .any(|q| (p - *q).length() < 2.0 * cancelled.grid_size);
+        assert!(
+            near,
+            "edge {e} twisted far from every cancelled singularity"
+        );
+    }
+    assert!(twisted_edges(&mesh, &plain.field).is_empty());
+}
+
+/// Edges where the stored matching is not the closest (frames differ by more than π/N).
+fn twisted_edges(mesh: &TriMesh, fld: &FrameField) -> Vec<usize> {
+    let n = fld.symmetry.n() as f64;
+    (0..mesh.n_edges())
+        .filter(|&e| {
+            let (h0, h1) = mesh.edge_halfedges(e);
+            let Some(h1) = h1 else { return false };
+            let (i, j) = (mesh.face_of(h0), mesh.face_of(h1));
+            let (ni, nj) = (mesh.face_normal(i), mesh.face_normal(j));
+            let d = mesh.vector(h0).normalize();
+            let q = DQuat::from_axis_angle(d, ni.cross(nj).dot(d).atan2(ni.dot(nj)));
+            let (ui, vi) = (q * fld.frames[i][0], q * fld.frames[i][1]);
+            let m = field::matching_matrix(fld.symmetry, fld.matchings[e]);
+            let mu = m[0][0] * ui + m[0][1] * vi;
+            let uj = fld.frames[j][0];
+            mu.cross(uj).length().atan2(mu.dot(uj)) > PI / n + 1e-9
+        })
+        .collect()
+}

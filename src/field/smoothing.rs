@@ -61,7 +61,14 @@ pub struct SmoothInput<'a> {
     pub omega: &'a [f64],
     pub tau: f64,
     pub relaxation: Relaxation,
+    /// Called once the rounded matchings are final, with (angles, turns): may return changed
+    /// turns (e.g. close singularity pairs cancelled, sec. 3.3) and faces whose alignment weight
+    /// to drop, which get one more fixed-matching solve.
+    pub adjust_turns: Option<&'a AdjustTurns<'a>>,
 }
+
+/// See [`SmoothInput::adjust_turns`]: new turns, and the faces whose alignment to release.
+pub type AdjustTurns<'a> = dyn Fn(&[f64], &[i64]) -> Option<(Vec<i64>, Vec<usize>)> + 'a;
 
 const MAX_PASSES: usize = 50;
 
@@ -191,27 +198,27 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
 
     // Fixed-matching system: dual Laplacian + diag(τω) + anchors. Only the right-hand side
     // depends on the matchings, so one factorisation serves all passes.
-    let mut b = SparseBuilder::with_capacity(nf, nf + 4 * tr.faces.len());
-    for i in 0..nf {
-        let d = w[i] + if is_anchor[i] { 1.0 } else { 0.0 };
-        b.add(i, i, d);
-    }
-    for f in &tr.faces {
-        if f[1] != NO_FACE {
-            let (i, j) = (f[0] as usize, f[1] as usize);
-            b.add(i, i, 1.0);
-            b.add(j, j, 1.0);
-            b.add_sym(i, j, -1.0);
+    let factor = |w: &[f64], is_anchor: &[bool]| -> Result<SpdSolver, SolverError> {
+        let mut b = SparseBuilder::with_capacity(nf, nf + 4 * tr.faces.len());
+        for i in 0..nf {
+            let d = w[i] + if is_anchor[i] { 1.0 } else { 0.0 };
+            b.add(i, i, d);
         }
-    }
-    let solver = SpdSolver::new(&b.build()?)?;
+        for f in &tr.faces {
+            if f[1] != NO_FACE {
+                let (i, j) = (f[0] as usize, f[1] as usize);
+                b.add(i, i, 1.0);
+                b.add(j, j, 1.0);
+                b.add_sym(i, j, -1.0);
+            }
+        }
+        SpdSolver::new(&b.build()?)
+    };
+    let solver = factor(&w, &is_anchor)?;
 
     let round_all = |theta: &[f64]| nearest_turns(tr, theta, step);
-    let mut theta = relaxed.clone();
-    let mut r = round_all(&theta);
-    let mut passes = 0;
-    loop {
-        passes += 1;
+    // Right-hand side of the fixed-matching system for the turns r.
+    let rhs_for = |r: &[i64], w: &[f64], is_anchor: &[bool]| {
         let mut rhs: Vec<f64> = (0..nf)
             .map(|i| w[i] * target[i] + if is_anchor[i] { relaxed[i] } else { 0.0 })
             .collect();
@@ -222,12 +229,32 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
                 rhs[f[1] as usize] += c;
             }
         }
-        theta = solver.solve(&rhs)?;
+        rhs
+    };
+    let mut theta = relaxed.clone();
+    let mut r = round_all(&theta);
+    let mut passes = 0;
+    loop {
+        passes += 1;
+        theta = solver.solve(&rhs_for(&r, &w, &is_anchor))?;
         let r_new = round_all(&theta);
         if r_new == r || passes >= MAX_PASSES {
             break;
         }
         r = r_new;
+    }
+    let mut w = w;
+    if let Some(adjust) = inp.adjust_turns
+        && let Some((adjusted, released)) = adjust(&theta, &r)
+    {
+        // Faces along the changed matchings lose their alignment weight (sec. 3.3: a moved
+        // singularity's path through trusted faces would otherwise leave a seam in the field).
+        r = adjusted;
+        for f in released {
+            w[f] = 0.0;
+        }
+        let is_anchor = anchor_faces(&w, inp.omega, &start, &adj);
+        theta = factor(&w, &is_anchor)?.solve(&rhs_for(&r, &w, &is_anchor))?;
     }
     let (e_smooth, e_align) = energies(tr, step, &theta, &r, inp.omega, &target);
     Ok(SmoothOutput {

@@ -1,0 +1,201 @@
+//! Cancelling close singularity pairs of opposite index (thesis sec. 3.3, "Singularity
+//! Movement": moving a singularity of index k/N along an edge path γ changes the matching of
+//! every edge on γ by k; moved onto a singularity of index −k/N, both vanish). Rounding the
+//! matchings all at once (sec. 3.2) leaves such pairs a grid cell or less apart on scanned
+//! meshes; each costs the parameterization a fold-prone spot and the remesh two irregular
+//! vertices, while the field barely changes when they go.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+use super::index::{IndexReport, indices_from_angles};
+use super::transport::{EdgeTransport, NO_FACE};
+use crate::mesh::TriMesh;
+
+/// Rounds of pairing: cancelling a pair can leave another singularity without its nearest
+/// partner, so pairing is repeated a few times.
+const ROUNDS: usize = 5;
+
+/// New per-edge turns (same convention as the smoothing's: from the face of the edge's first
+/// halfedge to the other) with opposite-index singularities closer than `radius` (3-D distance)
+/// cancelled pairwise, nearest pairs first, and the faces around the changed edges (whose
+/// alignment must give way so the field can turn smoothly there); `None` when there is no such
+/// pair or nothing could be cancelled.
+pub(crate) fn cancel_close_pairs(
+    mesh: &TriMesh,
+    tr: &EdgeTransport,
+    theta: &[f64],
+    turns: &[i64],
+    n: u32,
+    radius: f64,
+) -> Option<(Vec<i64>, Vec<usize>)> {
+    if radius <= 0.0 {
+        return None;
+    }
+    let report = |r: &[i64]| indices_from_angles(mesh, tr, theta, &reduce(tr, r, n), n);
+    let before = report(turns).singularities.len();
+    let mut r = turns.to_vec();
+    let mut sign: Option<i64> = None;
+    let mut released = Vec::new();
+    for _ in 0..ROUNDS {
+        let rep = report(&r);
+        let pairs = close_pairs(mesh, &rep, radius);
+        if pairs.is_empty() {
+            break;
+        }
+        let mut changed = false;
+        for (a, b, k) in pairs {
+            let Some(path) = shortest_interior_path(mesh, a, b, 3.0 * radius) else {
+                continue;
+            };
+            let s = match sign {
+                Some(s) => s,
+                None => {
+                    // The sign that makes the pair vanish (a sign error would double it instead).
+                    let mut trial = r.clone();
+                    apply(mesh, &mut trial, &path, k, 1);
+                    let s = if report(&trial).index_k[a] == Some(0) {
+                        1
+                    } else {
+                        -1
+                    };
+                    sign = Some(s);
+                    s
+                }
+            };
+            apply(mesh, &mut r, &path, k, s);
+            for &h in &path {
+                for v in [mesh.from(h), mesh.to(h)] {
+                    released.extend(mesh.outgoing(v).map(|g| mesh.face_of(g)));
+                }
+            }
+            changed = true;
+        }
+        if !changed {
+            break;
+        }
+    }
+    released.sort_unstable();
+    released.dedup();
+    (report(&r).singularities.len() < before).then_some((r, released))
+}
+
+fn reduce(tr: &EdgeTransport, r: &[i64], n: u32) -> Vec<i32> {
+    tr.faces
+        .iter()
+        .zip(r)
+        .map(|(f, &r)| {
+            if f[1] == NO_FACE {
+                0
+            } else {
+                r.rem_euclid(n as i64) as i32
+            }
+        })
+        .collect()
+}
+
+/// Disjoint pairs (a, b, k_a) with k_a + k_b = 0 and |p_a − p_b| < radius, nearest first.
+fn close_pairs(mesh: &TriMesh, rep: &IndexReport, radius: f64) -> Vec<(usize, usize, i32)> {
+    let s = &rep.singularities;
+    let mut candidates = Vec::new();
+    for i in 0..s.len() {
+        for j in i + 1..s.len() {
+            if s[i].k + s[j].k != 0 {
+                continue;
+            }
+            let d = (mesh.position(s[i].vertex) - mesh.position(s[j].vertex)).length();
+            if d < radius {
+                candidates.push((d, i, j));
+            }
+        }
+    }
+    candidates.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let mut used = vec![false; s.len()];
+    let mut pairs = Vec::new();
+    for (_, i, j) in candidates {
+        if !used[i] && !used[j] {
+            used[i] = true;
+            used[j] = true;
+            pairs.push((s[i].vertex, s[j].vertex, s[i].k));
+        }
+    }
+    pairs
+}
+
+/// Halfedges of a shortest edge path from `a` to `b` through interior vertices and interior
+/// edges (matchings live on interior edges only), no longer than `max_length`.
+fn shortest_interior_path(
+    mesh: &TriMesh,
+    a: usize,
+    b: usize,
+    max_length: f64,
+) -> Option<Vec<usize>> {
+    let nv = mesh.n_vertices();
+    let mut dist = vec![f64::INFINITY; nv];
+    let mut via = vec![usize::MAX; nv];
+    let mut heap = BinaryHeap::new();
+    dist[a] = 0.0;
+    heap.push(Reverse((Ordered(0.0), a)));
+    while let Some(Reverse((Ordered(d), v))) = heap.pop() {
+        if v == b {
+            break;
+        }
+        if d > dist[v] || d > max_length {
+            continue;
+        }
+        for h in mesh.outgoing(v) {
+            let w = mesh.to(h);
+            if mesh.twin(h).is_none() || (mesh.is_boundary_vertex(w) && w != b) {
+                continue;
+            }
+            let nd = d + mesh.vector(h).length();
+            if nd < dist[w] {
+                dist[w] = nd;
+                via[w] = h;
+                heap.push(Reverse((Ordered(nd), w)));
+            }
+        }
+    }
+    if via[b] == usize::MAX {
+        return None;
+    }
+    let mut path = Vec::new();
+    let mut v = b;
+    while v != a {
+        let h = via[v];
+        path.push(h);
+        v = mesh.from(h);
+    }
+    path.reverse();
+    Some(path)
+}
+
+/// Moves the singularity of index k/N at the start of `path` to its end: on each edge, the
+/// matching from the face right of the path to the face left of it changes by −s·k.
+fn apply(mesh: &TriMesh, r: &mut [i64], path: &[usize], k: i32, s: i64) {
+    for &h in path {
+        let e = mesh.edge(h);
+        let first_face = mesh.face_of(mesh.edge_halfedges(e).0);
+        let left = mesh.face_of(h);
+        if first_face == left {
+            r[e] += s * k as i64;
+        } else {
+            r[e] -= s * k as i64;
+        }
+    }
+}
+
+/// f64 with a total order, for the Dijkstra heap.
+#[derive(Clone, Copy, PartialEq)]
+struct Ordered(f64);
+impl Eq for Ordered {}
+impl PartialOrd for Ordered {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Ordered {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&other.0)
+    }
+}
