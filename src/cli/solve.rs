@@ -48,6 +48,10 @@ pub struct SolveArgs {
     /// noisy scans.
     #[arg(long)]
     pub curvature_smoothing: Option<usize>,
+    /// Cancel opposite-index singularity pairs closer than this many grid cells (sec. 3.3;
+    /// default 1, 0 = keep the rounded field).
+    #[arg(long)]
+    pub cancel_pairs_within: Option<f64>,
     /// Round gaps to 2Z² so that singularities land on integer grid points (N = 2, 4).
     #[arg(long)]
     pub pure_quad: bool,
@@ -222,6 +226,9 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             }
             if let Some(c) = args.curvature_smoothing {
                 params.curvature_smoothing = c;
+            }
+            if let Some(c) = args.cancel_pairs_within {
+                params.cancel_pairs_within = c;
             }
             if let Some(d) = density {
                 params.density = d;

@@ -255,6 +255,11 @@ pub fn compute_field(mesh: &TriMesh, params: &FieldParams) -> Result<FieldResult
             params.planar_threshold,
             params.planar_threshold >= 0.0,
         ),
+        (
+            "cancel_pairs_within",
+            params.cancel_pairs_within,
+            params.cancel_pairs_within >= 0.0,
+        ),
     ] {
         if !ok || !v.is_finite() {
             return Err(FieldError::InvalidParameter(format!("{name} = {v}")));
