@@ -33,16 +33,13 @@ pub(crate) fn cancel_close_pairs(
         return None;
     }
     let report = |r: &[i64]| indices_from_angles(mesh, tr, theta, &reduce(tr, r, n), n);
-    let before = report(turns).singularities.len();
+    let mut rep = report(turns);
+    let before = rep.singularities.len();
     let mut r = turns.to_vec();
     let mut sign: Option<i64> = None;
     let mut released = Vec::new();
     for _ in 0..ROUNDS {
-        let rep = report(&r);
         let pairs = close_pairs(mesh, &rep, radius);
-        if pairs.is_empty() {
-            break;
-        }
         let mut changed = false;
         for (a, b, k) in pairs {
             let Some(path) = shortest_interior_path(mesh, a, b, 3.0 * radius) else {
@@ -74,10 +71,11 @@ pub(crate) fn cancel_close_pairs(
         if !changed {
             break;
         }
+        rep = report(&r);
     }
     released.sort_unstable();
     released.dedup();
-    (report(&r).singularities.len() < before).then_some((r, released))
+    (rep.singularities.len() < before).then_some((r, released))
 }
 
 fn reduce(tr: &EdgeTransport, r: &[i64], n: u32) -> Vec<i32> {

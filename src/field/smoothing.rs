@@ -26,7 +26,7 @@ use std::f64::consts::TAU;
 use serde::{Deserialize, Serialize};
 
 use super::transport::{EdgeTransport, NO_FACE};
-use crate::sparse::{BlockBuilder2, SolverError, SparseBuilder, SpdSolver};
+use crate::sparse::{BlockBuilder2, SolverError, SparseBuilder, SparseMatrix, SpdSolver};
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Relaxation {
@@ -198,7 +198,7 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
 
     // Fixed-matching system: dual Laplacian + diag(τω) + anchors. Only the right-hand side
     // depends on the matchings, so one factorisation serves all passes.
-    let factor = |w: &[f64], is_anchor: &[bool]| -> Result<SpdSolver, SolverError> {
+    let system = |w: &[f64], is_anchor: &[bool]| -> Result<SparseMatrix, SolverError> {
         let mut b = SparseBuilder::with_capacity(nf, nf + 4 * tr.faces.len());
         for i in 0..nf {
             let d = w[i] + if is_anchor[i] { 1.0 } else { 0.0 };
@@ -212,9 +212,9 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
                 b.add_sym(i, j, -1.0);
             }
         }
-        SpdSolver::new(&b.build()?)
+        b.build()
     };
-    let solver = factor(&w, &is_anchor)?;
+    let mut solver = SpdSolver::new(&system(&w, &is_anchor)?)?;
 
     let round_all = |theta: &[f64]| nearest_turns(tr, theta, step);
     // Right-hand side of the fixed-matching system for the turns r.
@@ -254,7 +254,9 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
             w[f] = 0.0;
         }
         let is_anchor = anchor_faces(&w, inp.omega, &start, &adj);
-        theta = factor(&w, &is_anchor)?.solve(&rhs_for(&r, &w, &is_anchor))?;
+        // Same pattern (every diagonal entry is stored): only the numeric factorization is redone.
+        solver.refactor(&system(&w, &is_anchor)?)?;
+        theta = solver.solve(&rhs_for(&r, &w, &is_anchor))?;
     }
     let (e_smooth, e_align) = energies(tr, step, &theta, &r, inp.omega, &target);
     Ok(SmoothOutput {
