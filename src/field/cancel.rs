@@ -9,7 +9,8 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 use super::index::{IndexReport, indices_from_angles};
-use super::transport::{EdgeTransport, NO_FACE};
+use super::reduce_matchings;
+use super::transport::EdgeTransport;
 use crate::mesh::TriMesh;
 
 /// Rounds of pairing: cancelling a pair can leave another singularity without its nearest
@@ -32,7 +33,7 @@ pub(crate) fn cancel_close_pairs(
     if radius <= 0.0 {
         return None;
     }
-    let report = |r: &[i64]| indices_from_angles(mesh, tr, theta, &reduce(tr, r, n), n);
+    let report = |r: &[i64]| indices_from_angles(mesh, tr, theta, &reduce_matchings(tr, r, n), n);
     let mut rep = report(turns);
     let before = rep.singularities.len();
     let mut r = turns.to_vec();
@@ -76,20 +77,6 @@ pub(crate) fn cancel_close_pairs(
     released.sort_unstable();
     released.dedup();
     (rep.singularities.len() < before).then_some((r, released))
-}
-
-fn reduce(tr: &EdgeTransport, r: &[i64], n: u32) -> Vec<i32> {
-    tr.faces
-        .iter()
-        .zip(r)
-        .map(|(f, &r)| {
-            if f[1] == NO_FACE {
-                0
-            } else {
-                r.rem_euclid(n as i64) as i32
-            }
-        })
-        .collect()
 }
 
 /// Disjoint pairs (a, b, k_a) with k_a + k_b = 0 and |p_a − p_b| < radius, nearest first.

@@ -347,7 +347,8 @@ pub fn frames_from_angles(
         .collect()
 }
 
-fn reduce_matchings(tr: &EdgeTransport, r: &[i64], n: u32) -> Vec<i32> {
+/// Per-edge matchings in 0..N from unwrapped turns (0 on boundary edges).
+pub(crate) fn reduce_matchings(tr: &EdgeTransport, r: &[i64], n: u32) -> Vec<i32> {
     tr.faces
         .iter()
         .zip(r)
