@@ -345,36 +345,52 @@ impl Renderer {
             write_mask: wgpu::ColorWrites::ALL,
         })];
 
+        // The surface: shaded (multisampled, into the colour target) and, for the LIC, the
+        // G-buffer of surface noise and projected field directions (single-sampled).
         let v_attrs = vertex_attrs();
-        let mesh_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("quadcover mesh"),
-            layout: Some(&mesh_layout),
-            vertex: wgpu::VertexState {
-                module: &mesh_module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: std::mem::size_of::<Vertex>() as u64,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &v_attrs,
-                })],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(depth(true)),
+        let surface_pipeline =
+            |label: &str,
+             layout: &wgpu::PipelineLayout,
+             fs: &str,
+             targets: &[Option<wgpu::ColorTargetState>],
+             multisample: wgpu::MultisampleState| {
+                device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some(label),
+                    layout: Some(layout),
+                    vertex: wgpu::VertexState {
+                        module: &mesh_module,
+                        entry_point: Some("vs_main"),
+                        compilation_options: Default::default(),
+                        buffers: &[Some(wgpu::VertexBufferLayout {
+                            array_stride: std::mem::size_of::<Vertex>() as u64,
+                            step_mode: wgpu::VertexStepMode::Vertex,
+                            attributes: &v_attrs,
+                        })],
+                    },
+                    primitive: wgpu::PrimitiveState {
+                        topology: wgpu::PrimitiveTopology::TriangleList,
+                        cull_mode: None,
+                        ..Default::default()
+                    },
+                    depth_stencil: Some(depth(true)),
+                    multisample,
+                    fragment: Some(wgpu::FragmentState {
+                        module: &mesh_module,
+                        entry_point: Some(fs),
+                        compilation_options: Default::default(),
+                        targets,
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                })
+            };
+        let mesh_pipeline = surface_pipeline(
+            "quadcover mesh",
+            &mesh_layout,
+            "fs_main",
+            &opaque_target,
             multisample,
-            fragment: Some(wgpu::FragmentState {
-                module: &mesh_module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &opaque_target,
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        );
         let lic_targets = [
             Some(wgpu::ColorTargetState {
                 format: LIC_FORMAT,
@@ -387,35 +403,13 @@ impl Renderer {
                 write_mask: wgpu::ColorWrites::ALL,
             }),
         ];
-        let field_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("quadcover lic field"),
-            layout: Some(&field_layout),
-            vertex: wgpu::VertexState {
-                module: &mesh_module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: std::mem::size_of::<Vertex>() as u64,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &v_attrs,
-                })],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(depth(true)),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &mesh_module,
-                entry_point: Some("fs_field"),
-                compilation_options: Default::default(),
-                targets: &lic_targets,
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let field_pipeline = surface_pipeline(
+            "quadcover lic field",
+            &field_layout,
+            "fs_field",
+            &lic_targets,
+            wgpu::MultisampleState::default(),
+        );
         let lic_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("quadcover lic layout"),
             bind_group_layouts: &[Some(&overlay_bgl), Some(&target_layouts.gbuffer)],
