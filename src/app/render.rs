@@ -221,6 +221,50 @@ pub struct Renderer {
     pub uploads: u64,
 }
 
+/// A pipeline drawing one fullscreen triangle (no vertex buffers, no depth): the LIC pass and
+/// the viewport's blit. The module provides `vs_main` and `fs_main`.
+pub(crate) fn fullscreen_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    targets: &[Option<wgpu::ColorTargetState>],
+) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some("fs_main"),
+            compilation_options: Default::default(),
+            targets,
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// A depth attachment cleared to the far plane and discarded after the pass.
+fn cleared_depth(view: &wgpu::TextureView) -> wgpu::RenderPassDepthStencilAttachment<'_> {
+    wgpu::RenderPassDepthStencilAttachment {
+        view,
+        depth_ops: Some(wgpu::Operations {
+            load: wgpu::LoadOp::Clear(1.0),
+            store: wgpu::StoreOp::Discard,
+        }),
+        stencil_ops: None,
+    }
+}
+
 fn vertex_attrs() -> [wgpu::VertexAttribute; 5] {
     wgpu::vertex_attr_array![
         0 => Float32x3, 1 => Float32x3, 2 => Float32x3, 3 => Float32x2, 4 => Float32x3
@@ -415,27 +459,13 @@ impl Renderer {
             bind_group_layouts: &[Some(&overlay_bgl), Some(&target_layouts.gbuffer)],
             immediate_size: 0,
         });
-        let lic_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("quadcover lic"),
-            layout: Some(&lic_layout),
-            vertex: wgpu::VertexState {
-                module: &lic_module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &lic_module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &lic_targets[..1],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let lic_pipeline = fullscreen_pipeline(
+            device,
+            "quadcover lic",
+            &lic_layout,
+            &lic_module,
+            &lic_targets[..1],
+        );
         // Lines and glyphs: instanced quads expanded in the vertex shader, blended on top.
         let overlay_pipeline =
             |label: &str,
@@ -705,14 +735,7 @@ impl Renderer {
                 },
                 depth_slice: None,
             })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &target.depth_view,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
-                    store: wgpu::StoreOp::Discard,
-                }),
-                stencil_ops: None,
-            }),
+            depth_stencil_attachment: Some(cleared_depth(&target.depth_view)),
             occlusion_query_set: None,
             timestamp_writes: None,
             multiview_mask: None,
@@ -774,14 +797,7 @@ impl Renderer {
                         depth_slice: None,
                     }),
                 ],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &target.lic.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
-                }),
+                depth_stencil_attachment: Some(cleared_depth(&target.lic.depth_view)),
                 occlusion_query_set: None,
                 timestamp_writes: None,
                 multiview_mask: None,

@@ -5,7 +5,7 @@
 use std::sync::Arc;
 
 use super::camera::OrbitCamera;
-use super::render::{BLIT_WGSL, RenderTarget, Renderer};
+use super::render::{BLIT_WGSL, RenderTarget, Renderer, fullscreen_pipeline};
 use super::scene::SceneData;
 use super::settings::DisplaySettings;
 
@@ -58,27 +58,13 @@ impl ViewportResources {
             bind_group_layouts: &[Some(&blit_bgl)],
             immediate_size: 0,
         });
-        let blit_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("quadcover blit"),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[Some(target_format.into())],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let blit_pipeline = fullscreen_pipeline(
+            device,
+            "quadcover blit",
+            &layout,
+            &module,
+            &[Some(target_format.into())],
+        );
         let blit_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("quadcover blit sampler"),
             mag_filter: wgpu::FilterMode::Nearest,
