@@ -203,6 +203,19 @@ fn stages(rows: &mut Vec<Row>, name: &str, mesh: &TriMesh) -> Result<(), CliErro
         QuadCover::new(mesh, symmetry, matchings, ParamOptions::default())
     })?;
     total += rows.last().map_or(0.0, |r| r.seconds);
+    for (stage, ms) in [
+        ("cut graph", qc.timings.cut_ms),
+        ("local factor", qc.timings.local_ms),
+        ("global factor", qc.timings.global_ms),
+    ] {
+        rows.push(Row {
+            mesh: name.into(),
+            triangles: n,
+            stage: format!("  param.{stage}"),
+            seconds: ms / 1e3,
+            peak_mib: f64::NAN,
+        });
+    }
     let local = measure(rows, name, n, "param.local (solve + integrate)", || {
         qc.local_step(mesh, frames)
     })?;

@@ -26,7 +26,7 @@ use std::f64::consts::TAU;
 use serde::{Deserialize, Serialize};
 
 use super::transport::{EdgeTransport, NO_FACE};
-use crate::sparse::{BlockBuilder2, SolverError, SparseBuilder, SparseMatrix, SpdSolver};
+use crate::sparse::{SolverError, SparseBuilder, SparseMatrix, SpdSolver, c64};
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Relaxation {
@@ -306,30 +306,27 @@ fn relaxed_complex(
     let nf = inp.theta0.len();
     let n = inp.n as f64;
     let tr = inp.transport;
-    let mut b = BlockBuilder2::with_capacity(nf, nf + 4 * tr.faces.len());
-    let mut rhs = vec![0.0; 2 * nf];
+    let mut b = SparseBuilder::<c64>::with_capacity(nf, nf + 4 * tr.faces.len());
+    let mut rhs = vec![c64::new(0.0, 0.0); nf];
     for i in 0..nf {
         let d = w[i] + if is_anchor[i] { 1.0 } else { 0.0 };
-        b.add(i, i, [d, 0.0, 0.0, d]);
-        let (s, c) = (n * inp.theta0[i]).sin_cos();
-        rhs[2 * i] = d * c;
-        rhs[2 * i + 1] = d * s;
+        b.add(i, i, c64::new(d, 0.0));
+        rhs[i] = c64::from_polar(d, n * inp.theta0[i]);
     }
     for (e, f) in tr.faces.iter().enumerate() {
         if f[1] == NO_FACE {
             continue;
         }
         let (i, j) = (f[0] as usize, f[1] as usize);
-        // |z_j − ρ z_i|², ρ = e^{iNκ_ij} = c + i s: identity blocks on the diagonal and the block
-        // [[−c, s], [−s, −c]] coupling (x_j, y_j) with (x_i, y_i).
-        let (s, c) = (n * tr.kappa[e]).sin_cos();
-        b.add(i, i, [1.0, 0.0, 0.0, 1.0]);
-        b.add(j, j, [1.0, 0.0, 0.0, 1.0]);
-        b.add(j, i, [-c, s, -s, -c]);
-        b.add(i, j, [-c, -s, s, -c]);
+        // |z_j − ρ z_i|², ρ = e^{iNκ_ij}: ones on the diagonal, −ρ at (j, i), −conj(ρ) at (i, j).
+        let rho = c64::from_polar(1.0, n * tr.kappa[e]);
+        b.add(i, i, c64::new(1.0, 0.0));
+        b.add(j, j, c64::new(1.0, 0.0));
+        b.add(j, i, -rho);
+        b.add(i, j, -rho.conj());
     }
-    let z = SpdSolver::new_blocked(&b.build()?, 2)?.solve(&rhs)?;
-    Ok((0..nf).map(|i| z[2 * i + 1].atan2(z[2 * i]) / n).collect())
+    let z = SpdSolver::new(&b.build()?)?.solve(&rhs)?;
+    Ok(z.iter().map(|z| z.arg() / n).collect())
 }
 
 fn relaxed_forest(
