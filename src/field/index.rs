@@ -17,6 +17,7 @@
 
 use std::f64::consts::TAU;
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::FrameField;
@@ -86,7 +87,6 @@ pub(crate) fn indices_from_angles(
     matchings: &[i32],
     n: u32,
 ) -> IndexReport {
-    let step = TAU / n as f64;
     let ni = n as i64;
     let mut rep = IndexReport {
         n,
@@ -98,30 +98,17 @@ pub(crate) fn indices_from_angles(
         euler_characteristic: mesh.euler_characteristic(),
         max_rounding_residual: 0.0,
     };
-    for v in 0..mesh.n_vertices() {
-        let hs: Vec<usize> = mesh.outgoing(v).collect();
-        if hs.is_empty() {
+    let fans: Vec<_> = (0..mesh.n_vertices())
+        .into_par_iter()
+        .map(|v| {
+            fan_turning(mesh, tr, theta, v, n, |e| matchings[e] as i64)
+                .map(|fan| (fan, mesh.angle_defect(v)))
+        })
+        .collect();
+    for (v, fan) in fans.into_iter().enumerate() {
+        let Some(((sum_d, sum_r, boundary), defect)) = fan else {
             continue;
-        }
-        let boundary = mesh.is_boundary_vertex(v);
-        let mut sum_d = 0.0;
-        let mut sum_r = 0i64;
-        let crossings = if boundary { hs.len() - 1 } else { hs.len() };
-        for &h in hs.iter().take(crossings) {
-            // Crossing from face(h) to the next face counter-clockwise, over the edge of prev(h).
-            let g = mesh.prev(h);
-            let e = mesh.edge(g);
-            let (a, b) = (tr.faces[e][0] as usize, tr.faces[e][1] as usize);
-            let from = mesh.face_of(h);
-            let (to, kappa, r) = if a == from {
-                (b, tr.kappa[e], matchings[e] as i64)
-            } else {
-                (a, -tr.kappa[e], -(matchings[e] as i64))
-            };
-            sum_d += wrap_pi(theta[to] - theta[from] - kappa - step * r as f64);
-            sum_r += r;
-        }
-        let defect = mesh.angle_defect(v);
+        };
         if boundary {
             rep.boundary_contribution += (defect + sum_d) / TAU;
         } else {
@@ -138,4 +125,54 @@ pub(crate) fn indices_from_angles(
         }
     }
     rep
+}
+
+/// Around vertex v (counter-clockwise, over its interior fan edges): the summed residual angles
+/// Σ d_k, the summed matchings Σ r_{k,k+1}, and whether v is on the boundary; `None` for an
+/// isolated vertex. `turns(e)` is the matching of edge e (any representative mod N).
+pub(crate) fn fan_turning(
+    mesh: &TriMesh,
+    tr: &EdgeTransport,
+    theta: &[f64],
+    v: usize,
+    n: u32,
+    turns: impl Fn(usize) -> i64,
+) -> Option<(f64, i64, bool)> {
+    let step = TAU / n as f64;
+    let hs: Vec<usize> = mesh.outgoing(v).collect();
+    if hs.is_empty() {
+        return None;
+    }
+    let boundary = mesh.is_boundary_vertex(v);
+    let mut sum_d = 0.0;
+    let mut sum_r = 0i64;
+    let crossings = if boundary { hs.len() - 1 } else { hs.len() };
+    for &h in hs.iter().take(crossings) {
+        // Crossing from face(h) to the next face counter-clockwise, over the edge of prev(h).
+        let g = mesh.prev(h);
+        let e = mesh.edge(g);
+        let (a, b) = (tr.faces[e][0] as usize, tr.faces[e][1] as usize);
+        let from = mesh.face_of(h);
+        let (to, kappa, r) = if a == from {
+            (b, tr.kappa[e], turns(e))
+        } else {
+            (a, -tr.kappa[e], -turns(e))
+        };
+        sum_d += wrap_pi(theta[to] - theta[from] - kappa - step * r as f64);
+        sum_r += r;
+    }
+    Some((sum_d, sum_r, boundary))
+}
+
+/// The full index numerator k (index k/N) of an interior vertex; `None` on the boundary.
+pub(crate) fn index_k_at(
+    mesh: &TriMesh,
+    tr: &EdgeTransport,
+    theta: &[f64],
+    v: usize,
+    n: u32,
+    turns: impl Fn(usize) -> i64,
+) -> Option<i32> {
+    let (sum_d, _, boundary) = fan_turning(mesh, tr, theta, v, n, turns)?;
+    (!boundary).then(|| (n as f64 * (mesh.angle_defect(v) + sum_d) / TAU).round() as i32)
 }

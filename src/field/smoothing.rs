@@ -26,7 +26,7 @@ use std::f64::consts::TAU;
 use serde::{Deserialize, Serialize};
 
 use super::transport::{EdgeTransport, NO_FACE};
-use crate::sparse::{SolverError, SparseBuilder, SparseMatrix, SpdSolver, c64};
+use crate::sparse::{Analysis, SolverError, SparseBuilder, SparseMatrix, SpdSolver, c64};
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Relaxation {
@@ -47,7 +47,8 @@ pub struct SmoothOutput {
     pub passes: usize,
     /// Faces held by a (soft) anchor because their component had no alignment constraint.
     pub anchors: Vec<usize>,
-    /// Wall-clock seconds of the relaxed solve and of the fixed-matching passes.
+    /// Wall-clock seconds per stage (analysis, relaxed solve beside the fixed-matching
+    /// factorization, rounding passes, cancellation).
     pub timings: Vec<(String, f64)>,
 }
 
@@ -68,7 +69,7 @@ pub struct SmoothInput<'a> {
 }
 
 /// See [`SmoothInput::adjust_turns`]: new turns, and the faces whose alignment to release.
-pub type AdjustTurns<'a> = dyn Fn(&[f64], &[i64]) -> Option<(Vec<i64>, Vec<usize>)> + 'a;
+pub type AdjustTurns<'a> = dyn Fn(&[f64], &[i64]) -> Option<(Vec<i64>, Vec<usize>)> + Sync + 'a;
 
 const MAX_PASSES: usize = 50;
 
@@ -181,23 +182,10 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
         (w.clone(), is_anchor.clone())
     };
 
-    let clock = std::time::Instant::now();
-    let relaxed = match inp.relaxation {
-        Relaxation::Complex => relaxed_complex(inp, &w_relaxed, &anchor_relaxed)?,
-        Relaxation::SpanningForest => {
-            relaxed_forest(inp, &w_relaxed, &anchor_relaxed, &start, &adj)
-        }
-    };
-
-    let t_relaxed = clock.elapsed().as_secs_f64();
-    let clock = std::time::Instant::now();
-    // Alignment targets: the representative of θ⁰ (mod 2π/N) nearest the relaxed angle.
-    let target: Vec<f64> = (0..nf)
-        .map(|i| inp.theta0[i] + step * ((relaxed[i] - inp.theta0[i]) / step).round())
-        .collect();
-
     // Fixed-matching system: dual Laplacian + diag(τω) + anchors. Only the right-hand side
-    // depends on the matchings, so one factorisation serves all passes.
+    // depends on the matchings, so one factorisation serves all passes. It has the relaxed
+    // system's pattern, so one analysis (the AMD ordering) serves both, and since it does not
+    // depend on the relaxed solution it is factored on the other core meanwhile.
     let system = |w: &[f64], is_anchor: &[bool]| -> Result<SparseMatrix, SolverError> {
         let mut b = SparseBuilder::with_capacity(nf, nf + 4 * tr.faces.len());
         for i in 0..nf {
@@ -214,7 +202,38 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
         }
         b.build()
     };
-    let mut solver = SpdSolver::new(&system(&w, &is_anchor)?)?;
+    let mut timings = Vec::new();
+    let clock = std::time::Instant::now();
+    let fixed_matrix = system(&w, &is_anchor)?;
+    let analysis = Analysis::new(&fixed_matrix)?;
+    timings.push((
+        "smoothing: analysis".to_string(),
+        clock.elapsed().as_secs_f64(),
+    ));
+    let clock = std::time::Instant::now();
+    let (relaxed, solver) = rayon::join(
+        || match inp.relaxation {
+            Relaxation::Complex => relaxed_complex(inp, &w_relaxed, &anchor_relaxed, &analysis),
+            Relaxation::SpanningForest => Ok(relaxed_forest(
+                inp,
+                &w_relaxed,
+                &anchor_relaxed,
+                &start,
+                &adj,
+            )),
+        },
+        || SpdSolver::with_analysis(analysis.clone(), &fixed_matrix),
+    );
+    let (relaxed, mut solver) = (relaxed?, solver?);
+    timings.push((
+        "smoothing: relaxed solve | fixed-matching factorization".to_string(),
+        clock.elapsed().as_secs_f64(),
+    ));
+    let clock = std::time::Instant::now();
+    // Alignment targets: the representative of θ⁰ (mod 2π/N) nearest the relaxed angle.
+    let target: Vec<f64> = (0..nf)
+        .map(|i| inp.theta0[i] + step * ((relaxed[i] - inp.theta0[i]) / step).round())
+        .collect();
 
     let round_all = |theta: &[f64]| nearest_turns(tr, theta, step);
     // Right-hand side of the fixed-matching system for the turns r.
@@ -243,6 +262,11 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
         }
         r = r_new;
     }
+    timings.push((
+        format!("smoothing: rounding passes ({passes})"),
+        clock.elapsed().as_secs_f64(),
+    ));
+    let clock = std::time::Instant::now();
     let mut w = w;
     if let Some(adjust) = inp.adjust_turns
         && let Some((adjusted, released)) = adjust(&theta, &r)
@@ -266,13 +290,13 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
         e_align,
         passes,
         anchors: (0..nf).filter(|&i| is_anchor[i]).collect(),
-        timings: vec![
-            ("smoothing: relaxed solve".into(), t_relaxed),
-            (
-                "smoothing: rounding + fixed-matching solves".into(),
+        timings: {
+            timings.push((
+                "smoothing: cancellation + re-solve".to_string(),
                 clock.elapsed().as_secs_f64(),
-            ),
-        ],
+            ));
+            timings
+        },
     })
 }
 
@@ -298,10 +322,12 @@ pub fn energies(
     (es, ea)
 }
 
+/// The relaxed solve; `analysis` is that of the fixed-matching system, which has this pattern.
 fn relaxed_complex(
     inp: &SmoothInput,
     w: &[f64],
     is_anchor: &[bool],
+    analysis: &Analysis,
 ) -> Result<Vec<f64>, SolverError> {
     let nf = inp.theta0.len();
     let n = inp.n as f64;
@@ -325,7 +351,7 @@ fn relaxed_complex(
         b.add(j, i, -rho);
         b.add(i, j, -rho.conj());
     }
-    let z = SpdSolver::new(&b.build()?)?.solve(&rhs)?;
+    let z = SpdSolver::with_analysis(analysis.clone(), &b.build()?)?.solve(&rhs)?;
     Ok(z.iter().map(|z| z.arg() / n).collect())
 }
 
