@@ -176,6 +176,15 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         _ => None,
     };
     let mut timings = TimingsOut::default();
+    let opts = ParamOptions {
+        rounding: match args.rounding {
+            RoundingArg::Direct => Rounding::Direct,
+            RoundingArg::Greedy => Rounding::Greedy,
+        },
+        pure_quad: args.pure_quad,
+    };
+    // With a computed field, QuadCover's factorizations start as soon as its matchings are final.
+    let mut prepared = None;
     let field = match &args.field {
         Some(path) => {
             let t = Instant::now();
@@ -233,8 +242,9 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             if let Some(d) = density {
                 params.density = d;
             }
-            bar.start("frame field");
-            let fr = field::compute_field(&mesh, &params)?;
+            bar.start("frame field, then the QuadCover factorizations beside its last solve");
+            let (fr, qc) = param::pipeline::field_then_quadcover(&mesh, &params, n, &opts)?;
+            prepared = Some(qc);
             for (name, secs) in &fr.timings {
                 if name.contains("curvature") {
                     timings.curvature += secs * 1e3;
@@ -250,15 +260,11 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             fr.field
         }
     };
-    let opts = ParamOptions {
-        rounding: match args.rounding {
-            RoundingArg::Direct => Rounding::Direct,
-            RoundingArg::Greedy => Rounding::Greedy,
-        },
-        pure_quad: args.pure_quad,
-    };
     bar.start("QuadCover: cut graph, local and global step");
-    let qc = param::QuadCover::new(&mesh, n, &field.matchings, opts)?;
+    let qc = match prepared {
+        Some(qc) => qc,
+        None => param::QuadCover::new(&mesh, n, &field.matchings, opts)?,
+    };
     let p = qc.solve(&mesh, &field.frames)?;
     timings.cut = p.timings.cut_ms;
     timings.local = p.timings.local_ms;

@@ -41,7 +41,7 @@ pub use index::{IndexReport, Singularity, compute_indices};
 pub use smoothing::Relaxation;
 
 use crate::mesh::TriMesh;
-use crate::sparse::SolverError;
+use crate::sparse::{Analysis, SolverError};
 use transport::{EdgeTransport, FaceBases, NO_FACE, wrap_pi};
 
 /// Rotational symmetry order N of the field.
@@ -240,6 +240,17 @@ pub struct FieldResult {
 /// Computes a frame field: curvature → classification/reliability → smoothing → density →
 /// frames and matchings → singularities.
 pub fn compute_field(mesh: &TriMesh, params: &FieldParams) -> Result<FieldResult, FieldError> {
+    compute_field_then(mesh, params, |_| ()).map(|(r, ())| r)
+}
+
+/// [`compute_field`], handing the final matchings to `next` as soon as they are known: `next`
+/// runs on the other core while the field's last solve (angles only) finishes. A pipeline uses
+/// it to start the parameterization's factorizations, which need only the matchings.
+pub fn compute_field_then<T: Send>(
+    mesh: &TriMesh,
+    params: &FieldParams,
+    next: impl FnOnce(&[i32]) -> T + Send,
+) -> Result<(FieldResult, T), FieldError> {
     if mesh.n_faces() == 0 {
         return Err(FieldError::EmptyMesh);
     }
@@ -275,8 +286,14 @@ pub fn compute_field(mesh: &TriMesh, params: &FieldParams) -> Result<FieldResult
     let bases = FaceBases::new(mesh);
     let tr = EdgeTransport::new(mesh, &bases);
     lap("bases + transport", &mut timings);
-    let curvature = Curvature::compute(mesh, &bases, params.curvature_smoothing);
-    lap("curvature", &mut timings);
+    // The smoothing systems' analysis depends on the mesh only: computed beside the curvature.
+    let nf = mesh.n_faces();
+    let (analysis, curvature) = rayon::join(
+        || smoothing::dual_system(&tr, nf, |_| 1.0).and_then(|m| Analysis::new(&m)),
+        || Curvature::compute(mesh, &bases, params.curvature_smoothing),
+    );
+    let analysis = analysis?;
+    lap("curvature | smoothing analysis", &mut timings);
     let (lo, hi) = mesh.bounding_box();
     let diag = (hi - lo).length().max(f64::MIN_POSITIVE);
     let (reference, cand, classes) =
@@ -292,6 +309,17 @@ pub fn compute_field(mesh: &TriMesh, params: &FieldParams) -> Result<FieldResult
     let cancel = |theta: &[f64], turns: &[i64]| {
         cancel::cancel_close_pairs(mesh, &tr, theta, turns, n, radius)
     };
+    let next = std::sync::Mutex::new(Some(next));
+    let handed_on = std::sync::Mutex::new(None);
+    let hand_on = |matchings: &[i32]| {
+        if let Some(next) = next.lock().ok().and_then(|mut n| n.take()) {
+            let out = next(matchings);
+            if let Ok(mut slot) = handed_on.lock() {
+                *slot = Some(out);
+            }
+        }
+    };
+    let on_final_turns = |turns: &[i64]| hand_on(&reduce_matchings(&tr, turns, n));
     let sm = smoothing::smooth(&smoothing::SmoothInput {
         n,
         transport: &tr,
@@ -300,6 +328,8 @@ pub fn compute_field(mesh: &TriMesh, params: &FieldParams) -> Result<FieldResult
         tau: params.tau,
         relaxation: params.relaxation,
         adjust_turns: (radius > 0.0).then_some(&cancel as &smoothing::AdjustTurns),
+        analysis: Some(&analysis),
+        on_final_turns: Some(&on_final_turns),
     })?;
     timings.extend(sm.timings.iter().cloned());
     clock = Instant::now();
@@ -314,7 +344,14 @@ pub fn compute_field(mesh: &TriMesh, params: &FieldParams) -> Result<FieldResult
     let clock = Instant::now();
     let indices = index::indices_from_angles(mesh, &tr, &sm.theta, &field.matchings, n);
     timings.push(("singularities".into(), clock.elapsed().as_secs_f64()));
-    Ok(FieldResult {
+    // The hook runs once the turns are final; should it not have, hand on now.
+    hand_on(&field.matchings);
+    let handed_on = handed_on
+        .into_inner()
+        .ok()
+        .flatten()
+        .ok_or_else(|| FieldError::InvalidParameter("field pipeline lost its result".into()))?;
+    let result = FieldResult {
         field,
         theta: sm.theta,
         curvature,
@@ -328,7 +365,8 @@ pub fn compute_field(mesh: &TriMesh, params: &FieldParams) -> Result<FieldResult
         e_align: sm.e_align,
         passes: sm.passes,
         timings,
-    })
+    };
+    Ok((result, handed_on))
 }
 
 /// Isotropic frames: U = s_f (cos θ e1 + sin θ e2), V = n × U.

@@ -66,7 +66,39 @@ pub struct SmoothInput<'a> {
     /// turns (e.g. close singularity pairs cancelled, sec. 3.3) and faces whose alignment weight
     /// to drop, which get one more fixed-matching solve.
     pub adjust_turns: Option<&'a AdjustTurns<'a>>,
+    /// The analysis of [`dual_system`]'s pattern if already computed (it depends on the mesh
+    /// only, so callers can compute it while other work runs).
+    pub analysis: Option<&'a Analysis>,
+    /// Called with the final turns as soon as they are known, on the other core while the
+    /// last fixed-matching solve runs (a pipeline hands them to the parameterization there).
+    pub on_final_turns: Option<&'a FinalTurnsHook<'a>>,
 }
+
+/// The fixed-matching system: dual-graph Laplacian (one unit weight per interior edge) plus
+/// `diag(i)` on the diagonal. Every diagonal entry is stored, so all such systems, and the
+/// complex relaxed one, share one pattern and one [`Analysis`].
+pub fn dual_system(
+    tr: &EdgeTransport,
+    nf: usize,
+    diag: impl Fn(usize) -> f64,
+) -> Result<SparseMatrix, SolverError> {
+    let mut b = SparseBuilder::with_capacity(nf, nf + 4 * tr.faces.len());
+    for i in 0..nf {
+        b.add(i, i, diag(i));
+    }
+    for f in &tr.faces {
+        if f[1] != NO_FACE {
+            let (i, j) = (f[0] as usize, f[1] as usize);
+            b.add(i, i, 1.0);
+            b.add(j, j, 1.0);
+            b.add_sym(i, j, -1.0);
+        }
+    }
+    b.build()
+}
+
+/// See [`SmoothInput::on_final_turns`].
+pub type FinalTurnsHook<'a> = dyn Fn(&[i64]) + Sync + 'a;
 
 /// See [`SmoothInput::adjust_turns`]: new turns, and the faces whose alignment to release.
 pub type AdjustTurns<'a> = dyn Fn(&[f64], &[i64]) -> Option<(Vec<i64>, Vec<usize>)> + Sync + 'a;
@@ -186,28 +218,18 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
     // depends on the matchings, so one factorisation serves all passes. It has the relaxed
     // system's pattern, so one analysis (the AMD ordering) serves both, and since it does not
     // depend on the relaxed solution it is factored on the other core meanwhile.
-    let system = |w: &[f64], is_anchor: &[bool]| -> Result<SparseMatrix, SolverError> {
-        let mut b = SparseBuilder::with_capacity(nf, nf + 4 * tr.faces.len());
-        for i in 0..nf {
-            let d = w[i] + if is_anchor[i] { 1.0 } else { 0.0 };
-            b.add(i, i, d);
-        }
-        for f in &tr.faces {
-            if f[1] != NO_FACE {
-                let (i, j) = (f[0] as usize, f[1] as usize);
-                b.add(i, i, 1.0);
-                b.add(j, j, 1.0);
-                b.add_sym(i, j, -1.0);
-            }
-        }
-        b.build()
+    let system = |w: &[f64], is_anchor: &[bool]| {
+        dual_system(tr, nf, |i| w[i] + if is_anchor[i] { 1.0 } else { 0.0 })
     };
     let mut timings = Vec::new();
     let clock = std::time::Instant::now();
     let fixed_matrix = system(&w, &is_anchor)?;
-    let analysis = Analysis::new(&fixed_matrix)?;
+    let analysis = match inp.analysis {
+        Some(a) => a.clone(),
+        None => Analysis::new(&fixed_matrix)?,
+    };
     timings.push((
-        "smoothing: analysis".to_string(),
+        "smoothing: fixed-matching system".to_string(),
         clock.elapsed().as_secs_f64(),
     ));
     let clock = std::time::Instant::now();
@@ -268,6 +290,7 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
     ));
     let clock = std::time::Instant::now();
     let mut w = w;
+    let mut released_alignment = false;
     if let Some(adjust) = inp.adjust_turns
         && let Some((adjusted, released)) = adjust(&theta, &r)
     {
@@ -277,11 +300,22 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
         for f in released {
             w[f] = 0.0;
         }
-        let is_anchor = anchor_faces(&w, inp.omega, &start, &adj);
-        // Same pattern (every diagonal entry is stored): only the numeric factorization is redone.
-        solver.refactor(&system(&w, &is_anchor)?)?;
-        theta = solver.solve(&rhs_for(&r, &w, &is_anchor))?;
+        released_alignment = true;
     }
+    // The turns are final here; only the angles may still change.
+    let re_solve = || -> Result<Vec<f64>, SolverError> {
+        if !released_alignment {
+            return Ok(theta);
+        }
+        let is_anchor = anchor_faces(&w, inp.omega, &start, &adj);
+        // Same pattern: only the numeric factorization is redone.
+        solver.refactor(&system(&w, &is_anchor)?)?;
+        solver.solve(&rhs_for(&r, &w, &is_anchor))
+    };
+    let theta = match inp.on_final_turns {
+        Some(hook) => rayon::join(re_solve, || hook(&r)).0?,
+        None => re_solve()?,
+    };
     let (e_smooth, e_align) = energies(tr, step, &theta, &r, inp.omega, &target);
     Ok(SmoothOutput {
         theta,

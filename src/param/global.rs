@@ -11,6 +11,7 @@ use super::ParamError;
 use super::cut::{CutGraph, NONE, step};
 use super::rot::{Aff, ID, Lattice, Lin, M2, Rots, apply, inverse, mul, sub, transpose};
 use super::system::{BlockBuilder, BlockSolver};
+use crate::sparse::{Analysis, SparseBuilder};
 
 pub(crate) struct GlobalSystem {
     pub corner_var: Vec<u32>,
@@ -28,13 +29,22 @@ fn stiffness(mesh: &TriMesh, f: usize) -> [[f64; 3]; 3] {
 }
 
 impl GlobalSystem {
-    pub fn new(mesh: &TriMesh, cut: &CutGraph, rots: &Rots) -> Result<GlobalSystem, ParamError> {
+    /// The system's sparsity pattern depends on the mesh only (see [`Self::pattern`]), so an
+    /// analysis computed beforehand can be passed in.
+    pub fn new(
+        mesh: &TriMesh,
+        cut: &CutGraph,
+        rots: &Rots,
+        analysis: Option<&Analysis>,
+    ) -> Result<GlobalSystem, ParamError> {
         let nc = 3 * mesh.n_faces();
         let mut corner_var = vec![NONE; nc];
         let mut corner_rot = vec![0u8; nc];
         let mut corner_lin = vec![Lin::default(); nc];
         let mut pinned = vec![false; cut.translation_kernel.len()];
-        let mut n = 0usize;
+        // One unknown per vertex, numbered by vertex, so that the pattern is the mesh's. Branch
+        // points (fixed by eq. 2.40) and the pinned vertex keep a decoupled identity row.
+        let mut removed = vec![false; mesh.n_vertices()];
         for v in 0..mesh.n_vertices() {
             let h0 = mesh.vertex_halfedge(v);
             let mut fan: Vec<(usize, Aff)> = vec![(h0, Aff::default())];
@@ -65,14 +75,15 @@ impl GlobalSystem {
                 for (h, a) in fan {
                     corner_lin[h] = xlin.left(rots.get(a.rot as i64)).add(&a.lin);
                 }
+                removed[v] = true;
                 continue;
             }
             let var = if cut.translation_kernel[comp] && !pinned[comp] {
                 pinned[comp] = true;
+                removed[v] = true;
                 NONE
             } else {
-                n += 1;
-                (n - 1) as u32
+                v as u32
             };
             for (h, a) in fan {
                 corner_var[h] = var;
@@ -80,17 +91,21 @@ impl GlobalSystem {
                 corner_lin[h] = a.lin;
             }
         }
-        let mut b = BlockBuilder::new(rots.n == 2, n, 9 * mesh.n_faces());
+        let nv = mesh.n_vertices();
+        let mut b = BlockBuilder::new(rots.n == 2, nv, nv + 9 * mesh.n_faces());
+        for v in 0..nv {
+            b.add(v, v, if removed[v] { 1.0 } else { 0.0 }, &ID);
+        }
         for f in 0..mesh.n_faces() {
             let k = stiffness(mesh, f);
+            let fv = mesh.face(f);
             for a in 0..3 {
                 let va = corner_var[3 * f + a];
-                if va == NONE {
-                    continue;
-                }
                 for bb in 0..3 {
                     let vb = corner_var[3 * f + bb];
-                    if vb == NONE {
+                    if va == NONE || vb == NONE {
+                        // Kept as an explicit zero: the pattern stays the mesh's.
+                        b.add(fv[a], fv[bb], 0.0, &ID);
                         continue;
                     }
                     let r = rots.get(corner_rot[3 * f + bb] as i64 - corner_rot[3 * f + a] as i64);
@@ -103,8 +118,25 @@ impl GlobalSystem {
             corner_rot,
             corner_lin,
             n_loops: cut.generators.len(),
-            solver: b.factor()?,
+            solver: b.factor(analysis)?,
         })
+    }
+
+    /// The pattern of the system: vertex adjacency plus the diagonal (values are placeholders).
+    pub fn pattern(mesh: &TriMesh) -> Result<Analysis, ParamError> {
+        let nv = mesh.n_vertices();
+        let mut b = SparseBuilder::<f64>::with_capacity(nv, nv + 9 * mesh.n_faces());
+        for v in 0..nv {
+            b.add(v, v, 1.0);
+        }
+        for fv in mesh.faces() {
+            for &a in fv {
+                for &c in fv {
+                    b.add(a as usize, c as usize, 1.0);
+                }
+            }
+        }
+        Ok(Analysis::new(&b.build()?)?)
     }
 
     /// Per-corner targets b_a = A⟨∇λ_a, X̃⟩ (rows) of the disk-frame field.

@@ -8,13 +8,32 @@ use crate::mesh::TriMesh;
 
 use super::ParamError;
 use super::cut::{CutGraph, NONE};
-use super::rot::{Rots, apply, transpose};
+use super::rot::{ID, Rots, apply, transpose};
 use super::system::{BlockBuilder, BlockSolver};
+use crate::sparse::{Analysis, SparseBuilder};
 
 /// The factored non-conforming system; depends on geometry and matchings only.
 pub(crate) struct LocalSystem {
     edge_var: Vec<u32>,
+    /// Per unknown: pinned to 0 (one per closed component whose constants are in the kernel).
+    pinned: Vec<bool>,
     solver: BlockSolver,
+}
+
+/// Unknown number per edge (interior edges in edge order; `NONE` on the boundary) and count.
+fn interior_edge_numbering(mesh: &TriMesh) -> (Vec<u32>, usize) {
+    let mut n = 0u32;
+    let vars = (0..mesh.n_edges())
+        .map(|e| {
+            if mesh.is_boundary_edge(e) {
+                NONE
+            } else {
+                n += 1;
+                n - 1
+            }
+        })
+        .collect();
+    (vars, n as usize)
 }
 
 /// Rotation exponent of edge e's unknown as seen from face f (0 on the h0 side, r_e on the other).
@@ -28,26 +47,33 @@ fn side_rot(mesh: &TriMesh, cut: &CutGraph, h: usize) -> i64 {
 }
 
 impl LocalSystem {
-    pub fn new(mesh: &TriMesh, cut: &CutGraph, rots: &Rots) -> Result<LocalSystem, ParamError> {
-        let ne = mesh.n_edges();
-        let mut edge_var = vec![NONE; ne];
-        let mut pinned = vec![false; cut.translation_kernel.len()];
-        let mut n = 0usize;
-        for e in 0..ne {
-            if mesh.is_boundary_edge(e) {
+    /// Unknowns: one per interior edge, numbered in edge order. The system's pattern depends on
+    /// the mesh only (see [`Self::pattern`]), so an analysis computed beforehand can be passed in.
+    pub fn new(
+        mesh: &TriMesh,
+        cut: &CutGraph,
+        rots: &Rots,
+        analysis: Option<&Analysis>,
+    ) -> Result<LocalSystem, ParamError> {
+        let (edge_var, n) = interior_edge_numbering(mesh);
+        // Constants on the covering are in the kernel only on closed components whose matchings
+        // are a coboundary; one edge there is pinned to 0 by a decoupled identity row.
+        let mut pinned = vec![false; n];
+        let mut comp_pinned = vec![false; cut.translation_kernel.len()];
+        for e in 0..mesh.n_edges() {
+            if edge_var[e] == NONE {
                 continue;
             }
             let c = cut.comp_of_face[mesh.face_of(mesh.edge_halfedges(e).0)] as usize;
-            // Constants on the covering are in the kernel only on closed components whose
-            // matchings are a coboundary; pin one edge there.
-            if cut.closed_comp[c] && cut.translation_kernel[c] && !pinned[c] {
-                pinned[c] = true;
-                continue;
+            if cut.closed_comp[c] && cut.translation_kernel[c] && !comp_pinned[c] {
+                comp_pinned[c] = true;
+                pinned[edge_var[e] as usize] = true;
             }
-            edge_var[e] = n as u32;
-            n += 1;
         }
-        let mut b = BlockBuilder::new(rots.n == 2, n, 9 * mesh.n_faces());
+        let mut b = BlockBuilder::new(rots.n == 2, n, n + 9 * mesh.n_faces());
+        for v in 0..n {
+            b.add(v, v, if pinned[v] { 1.0 } else { 0.0 }, &ID);
+        }
         for f in 0..mesh.n_faces() {
             let area = mesh.face_area(f);
             let d: [DVec3; 3] = std::array::from_fn(|k| mesh.vector(3 * f + k));
@@ -62,6 +88,11 @@ impl LocalSystem {
                     if vb == NONE {
                         continue;
                     }
+                    if pinned[va as usize] || pinned[vb as usize] {
+                        // Kept as an explicit zero: the pattern stays the mesh's.
+                        b.add(va as usize, vb as usize, 0.0, &ID);
+                        continue;
+                    }
                     let sb = side_rot(mesh, cut, 3 * f + bb);
                     b.add(
                         va as usize,
@@ -74,8 +105,32 @@ impl LocalSystem {
         }
         Ok(LocalSystem {
             edge_var,
-            solver: b.factor()?,
+            pinned,
+            solver: b.factor(analysis)?,
         })
+    }
+
+    /// The pattern of the system: interior edges sharing a face, plus the diagonal.
+    pub fn pattern(mesh: &TriMesh) -> Result<Analysis, ParamError> {
+        let (edge_var, n) = interior_edge_numbering(mesh);
+        let mut b = SparseBuilder::<f64>::with_capacity(n, n + 9 * mesh.n_faces());
+        for v in 0..n {
+            b.add(v, v, 1.0);
+        }
+        for f in 0..mesh.n_faces() {
+            for a in 0..3 {
+                for c in 0..3 {
+                    let (va, vc) = (
+                        edge_var[mesh.edge(3 * f + a)],
+                        edge_var[mesh.edge(3 * f + c)],
+                    );
+                    if va != NONE && vc != NONE {
+                        b.add(va as usize, vc as usize, 1.0);
+                    }
+                }
+            }
+        }
+        Ok(Analysis::new(&b.build()?)?)
     }
 
     /// Curl*-free frames (per face rows U, V) closest to `frames` (co-gradient removed).
@@ -102,6 +157,11 @@ impl LocalSystem {
                 );
                 rhs[v as usize][0] += c[0];
                 rhs[v as usize][1] += c[1];
+            }
+        }
+        for (r, &p) in rhs.iter_mut().zip(&self.pinned) {
+            if p {
+                *r = [0.0; 2];
             }
         }
         let g = self.solver.solve(&rhs)?;

@@ -29,6 +29,8 @@ mod metrics;
 mod rot;
 mod system;
 
+pub mod pipeline;
+
 pub mod bench;
 
 use std::time::Instant;
@@ -38,7 +40,7 @@ use serde::Serialize;
 use thiserror::Error;
 
 use crate::mesh::TriMesh;
-use crate::sparse::SolverError;
+use crate::sparse::{Analysis, SolverError};
 
 pub use local::curl_star;
 pub use rot::Lattice;
@@ -154,6 +156,26 @@ pub fn expected_cut_paths(genus: usize, boundary_loops: usize, branch_points: us
     if k == 0 { 2 * genus } else { 2 * genus + k - 1 }
 }
 
+/// The symbolic analyses (fill-reducing orderings) of QuadCover's two systems. Their patterns
+/// depend on the mesh only, not on the symmetry, matchings or cut graph: unknowns that those
+/// remove (branch points, pinned nodes) keep decoupled identity rows instead.
+#[derive(Clone, Debug)]
+pub struct ParamAnalysis {
+    local: Analysis,
+    global: Analysis,
+}
+
+impl ParamAnalysis {
+    /// Both analyses, one after the other: meant to run on a thread of its own beside other
+    /// work (the frame field), whose idle core time it fills.
+    pub fn new(mesh: &TriMesh) -> Result<ParamAnalysis, ParamError> {
+        Ok(ParamAnalysis {
+            local: LocalSystem::pattern(mesh)?,
+            global: GlobalSystem::pattern(mesh)?,
+        })
+    }
+}
+
 /// A prepared QuadCover solver for one mesh, symmetry and set of matchings.
 pub struct QuadCover {
     symmetry: usize,
@@ -177,6 +199,19 @@ impl QuadCover {
         symmetry: usize,
         matchings: &[i32],
         opts: ParamOptions,
+    ) -> Result<QuadCover, ParamError> {
+        Self::with_analysis(mesh, symmetry, matchings, opts, None)
+    }
+
+    /// [`QuadCover::new`] with the systems' analysis computed beforehand (for this mesh): only
+    /// the numeric factorizations remain. The editor keeps one per mesh for re-solves after
+    /// edits of the field; the `solve` pipeline computes it while the field is being smoothed.
+    pub fn with_analysis(
+        mesh: &TriMesh,
+        symmetry: usize,
+        matchings: &[i32],
+        opts: ParamOptions,
+        analysis: Option<&ParamAnalysis>,
     ) -> Result<QuadCover, ParamError> {
         if ![2, 4, 6].contains(&symmetry) {
             return Err(ParamError::InvalidInput(format!(
@@ -211,11 +246,13 @@ impl QuadCover {
         let ((local, local_ms), (global, global_ms)) = rayon::join(
             || {
                 let t = Instant::now();
-                (LocalSystem::new(mesh, &cut, &rots), ms(t))
+                let a = analysis.map(|a| &a.local);
+                (LocalSystem::new(mesh, &cut, &rots, a), ms(t))
             },
             || {
                 let t = Instant::now();
-                (GlobalSystem::new(mesh, &cut, &rots), ms(t))
+                let a = analysis.map(|a| &a.global);
+                (GlobalSystem::new(mesh, &cut, &rots, a), ms(t))
             },
         );
         let (local, global) = (local?, global?);

@@ -4,7 +4,7 @@
 //! the complex number c − is acting on u + iv, and the system is assembled and factored as a
 //! Hermitian one (half the work of the real 2 × 2-block form, see `sparse::Scalar`).
 
-use crate::sparse::{SparseBuilder, SpdSolver, c64};
+use crate::sparse::{Analysis, Scalar, SparseBuilder, SpdSolver, c64};
 
 use super::ParamError;
 use super::rot::M2;
@@ -37,10 +37,21 @@ impl BlockBuilder {
             BlockBuilder::Complex(b) => b.add(i, j, block_to_complex(m) * k),
         }
     }
-    pub fn factor(&self) -> Result<BlockSolver, ParamError> {
+    /// Factors the system, with `analysis` of its pattern if one was computed beforehand.
+    pub fn factor(&self, analysis: Option<&Analysis>) -> Result<BlockSolver, ParamError> {
+        fn solver<T: Scalar>(
+            b: &SparseBuilder<T>,
+            analysis: Option<&Analysis>,
+        ) -> Result<SpdSolver<T>, ParamError> {
+            let m = b.build()?;
+            Ok(match analysis {
+                Some(a) => SpdSolver::with_analysis(a.clone(), &m)?,
+                None => SpdSolver::new(&m)?,
+            })
+        }
         Ok(match self {
-            BlockBuilder::Scalar(b) => BlockSolver::Scalar(SpdSolver::new(&b.build()?)?),
-            BlockBuilder::Complex(b) => BlockSolver::Complex(SpdSolver::new(&b.build()?)?),
+            BlockBuilder::Scalar(b) => BlockSolver::Scalar(solver(b, analysis)?),
+            BlockBuilder::Complex(b) => BlockSolver::Complex(solver(b, analysis)?),
         })
     }
 }
