@@ -368,6 +368,114 @@ fn resolve_with_new_frames_matches_fresh_solve() {
     assert!(worst < 1e-8);
 }
 
+fn max_uv_difference(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x[0] - y[0]).hypot(x[1] - y[1]))
+        .fold(0.0, f64::max)
+}
+
+/// One mesh-only analysis serves every symmetry and set of matchings: branch points and pinned
+/// unknowns become identity rows, and the result equals a fresh factorization's. Covers a pinned
+/// local and global unknown (torus, zero matchings), branch points (sphere) and a boundary (disc).
+#[test]
+fn precomputed_analysis_gives_the_same_parameterization() {
+    let torus = generate::torus(3.0, 1.0, 30, 12);
+    let torus_frames = torus_frames(&torus, 2.3);
+    let disc = generate::disc(1.0, 12);
+    let disc_frames = vec![[DVec3::X * 5.0, DVec3::Y * 5.0]; disc.n_faces()];
+    let (sphere, sphere_frames, _) = sphere_field(4);
+    let cases: Vec<(&TriMesh, &[[DVec3; 2]], Vec<i32>, usize)> = vec![
+        (&torus, &torus_frames, vec![0; torus.n_edges()], 4),
+        (&disc, &disc_frames, vec![0; disc.n_edges()], 2),
+        (
+            &sphere,
+            &sphere_frames,
+            param::fit_matchings(&sphere, 4, &sphere_frames),
+            4,
+        ),
+        (
+            &sphere,
+            &sphere_frames,
+            param::fit_matchings(&sphere, 6, &sphere_frames),
+            6,
+        ),
+        (
+            &sphere,
+            &sphere_frames,
+            param::fit_matchings(&sphere, 2, &sphere_frames),
+            2,
+        ),
+    ];
+    let sphere_analysis = param::ParamAnalysis::new(&sphere).unwrap();
+    for (mesh, frames, matchings, n) in cases {
+        let fresh = QuadCover::new(mesh, n, &matchings, ParamOptions::default()).unwrap();
+        let own = param::ParamAnalysis::new(mesh).unwrap();
+        let analysis = if std::ptr::eq(mesh, &sphere) {
+            &sphere_analysis
+        } else {
+            &own
+        };
+        let reused =
+            QuadCover::with_analysis(mesh, n, &matchings, ParamOptions::default(), Some(analysis))
+                .unwrap();
+        let (a, b) = (
+            fresh.solve(mesh, frames).unwrap(),
+            reused.solve(mesh, frames).unwrap(),
+        );
+        assert_finite(&b);
+        let worst = max_uv_difference(&a.uv, &b.uv);
+        assert!(
+            worst < 1e-9,
+            "N={n}: analysis reuse changed the map by {worst}"
+        );
+        assert!(b.seam_max_error < 1e-6);
+    }
+    // An analysis of another mesh is refused with an error, not a panic.
+    let m = vec![0; torus.n_edges()];
+    assert!(
+        QuadCover::with_analysis(
+            &torus,
+            4,
+            &m,
+            ParamOptions::default(),
+            Some(&sphere_analysis)
+        )
+        .is_err()
+    );
+}
+
+/// The overlapped pipeline (analyses beside the field, factorizations beside its last solve)
+/// computes exactly what the stages give one after the other.
+#[test]
+fn pipeline_equals_sequential_stages() {
+    let mesh = quadcover::load::load_mesh(&Path::new(MESHES).join("fandisk.obj"))
+        .unwrap()
+        .mesh;
+    for n in [4, 6] {
+        let params = FieldParams {
+            symmetry: Symmetry::from_n(n as u32).unwrap(),
+            ..Default::default()
+        };
+        let (fr, qc) =
+            param::pipeline::field_then_quadcover(&mesh, &params, n, &ParamOptions::default())
+                .unwrap();
+        let alone = field::compute_field(&mesh, &params).unwrap();
+        assert_eq!(fr.field.matchings, alone.field.matchings);
+        assert_eq!(fr.field.frames, alone.field.frames);
+        let seq = QuadCover::new(&mesh, n, &alone.field.matchings, ParamOptions::default())
+            .unwrap()
+            .solve(&mesh, &alone.field.frames)
+            .unwrap();
+        let piped = qc.solve(&mesh, &fr.field.frames).unwrap();
+        assert!(max_uv_difference(&seq.uv, &piped.uv) < 1e-9);
+        assert_eq!(seq.singularities, piped.singularities);
+        // The hook saw the final matchings.
+        let (_, seen) = field::compute_field_then(&mesh, &params, |m| m.to_vec()).unwrap();
+        assert_eq!(seen, alone.field.matchings);
+    }
+}
+
 #[test]
 fn bad_input_is_an_error() {
     let mesh = generate::grid(2, 2, 1.0, 1.0);

@@ -187,9 +187,18 @@ fn stages(rows: &mut Vec<Row>, name: &str, mesh: &TriMesh) -> Result<(), CliErro
     let params = FieldParams::default();
     let symmetry = params.symmetry.n() as usize;
     // The field alone (issue #3's figure), then the pipeline as `solve` runs it.
-    measure(rows, name, n, "field alone (curvature + smoothing)", || {
+    let alone = measure(rows, name, n, "field alone (curvature + smoothing)", || {
         compute_field(mesh, &params)
     })?;
+    for (stage, seconds) in &alone.timings {
+        rows.push(Row {
+            mesh: name.into(),
+            triangles: n,
+            stage: format!("  field.{stage}"),
+            seconds: *seconds,
+            peak_mib: f64::NAN,
+        });
+    }
     // As `solve` runs it: QuadCover's analyses beside the field, its factorizations beside the
     // field's last solve (`param::pipeline`).
     let (field, qc) = measure(
@@ -209,15 +218,12 @@ fn stages(rows: &mut Vec<Row>, name: &str, mesh: &TriMesh) -> Result<(), CliErro
             peak_mib: f64::NAN,
         })
     };
-    for (stage, seconds) in &field.timings {
-        sub(format!("  field.{stage}"), *seconds);
-    }
     for (stage, ms) in [
         ("cut graph", qc.timings.cut_ms),
         ("local factor", qc.timings.local_ms),
         ("global factor", qc.timings.global_ms),
     ] {
-        sub(format!("    param.{stage}"), ms / 1e3);
+        sub(format!("  param.{stage}"), ms / 1e3);
     }
     let (frames, matchings) = (&field.field.frames, &field.field.matchings);
     let local = measure(rows, name, n, "param.local (solve + integrate)", || {
