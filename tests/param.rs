@@ -385,7 +385,8 @@ fn precomputed_analysis_gives_the_same_parameterization() {
     let disc = generate::disc(1.0, 12);
     let disc_frames = vec![[DVec3::X * 5.0, DVec3::Y * 5.0]; disc.n_faces()];
     let (sphere, sphere_frames, _) = sphere_field(4);
-    let cases: Vec<(&TriMesh, &[[DVec3; 2]], Vec<i32>, usize)> = vec![
+    type Case<'a> = (&'a TriMesh, &'a [[DVec3; 2]], Vec<i32>, usize);
+    let cases: Vec<Case> = vec![
         (&torus, &torus_frames, vec![0; torus.n_edges()], 4),
         (&disc, &disc_frames, vec![0; disc.n_edges()], 2),
         (
