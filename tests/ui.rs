@@ -152,6 +152,31 @@ fn switches_display_mode_pattern_and_shading() {
     h.get_by_label_contains("Parameterization: ");
     save_render(&mut h, "ui_kitten_quads.png");
 
+    // A re-solve reuses the mesh's QuadCover analysis (numeric work only) and gives the same map.
+    let analysis = h
+        .state()
+        .document
+        .param_analysis
+        .clone()
+        .expect("analysis kept");
+    let first = h
+        .state()
+        .document
+        .parameterization
+        .as_ref()
+        .unwrap()
+        .uv
+        .clone();
+    h.get_by_label("Parameterize").click();
+    h.step();
+    settle(&mut h);
+    let again = h.state().document.param_analysis.clone().unwrap();
+    assert!(std::sync::Arc::ptr_eq(&analysis, &again));
+    assert_eq!(
+        h.state().document.parameterization.as_ref().unwrap().uv,
+        first
+    );
+
     // File ▸ Export, as background jobs: the UV OBJ reads back with the solver's UVs, and the
     // remesh of the genus-1 kitten is a closed quad-dominant mesh.
     let uv_path = dir.path().join("kitten-uv.obj");

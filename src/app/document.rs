@@ -167,6 +167,9 @@ pub struct Document {
     pub frame_field: Option<crate::field::FrameField>,
     /// The core parameterization result.
     pub parameterization: Option<crate::param::Parameterization>,
+    /// QuadCover's symbolic analyses for this mesh (they depend on the mesh only): every
+    /// re-solve after the first, whatever the field or symmetry, does numeric work only.
+    pub param_analysis: Option<Arc<crate::param::ParamAnalysis>>,
     /// One-line summaries of the field / parameterization results.
     pub field_summary: String,
     pub param_summary: String,
@@ -191,6 +194,7 @@ impl Default for Document {
             param: None,
             frame_field: None,
             parameterization: None,
+            param_analysis: None,
             field_summary: String::new(),
             param_summary: String::new(),
             lines: Vec::new(),
@@ -216,6 +220,7 @@ impl Document {
         self.param = None;
         self.frame_field = None;
         self.parameterization = None;
+        self.param_analysis = None;
         self.field_summary.clear();
         self.param_summary.clear();
         self.lines.clear();

@@ -224,16 +224,25 @@ impl EditorApp {
             return;
         };
         let generation = self.document.generation();
+        let analysis = self.document.param_analysis.clone();
         self.jobs.push(
             Job::spawn("Parameterizing (QuadCover)", ctx, move |_| {
-                let fref = crate::param::FieldRef {
-                    symmetry: field.symmetry.n() as usize,
-                    frames: &field.frames,
-                    matchings: &field.matchings,
+                let run = || -> Result<JobOutput, crate::param::ParamError> {
+                    let analysis = match analysis {
+                        Some(a) => a,
+                        None => std::sync::Arc::new(crate::param::ParamAnalysis::new(&mesh)?),
+                    };
+                    let qc = crate::param::QuadCover::with_analysis(
+                        &mesh,
+                        field.symmetry.n() as usize,
+                        &field.matchings,
+                        crate::param::ParamOptions::default(),
+                        Some(&analysis),
+                    )?;
+                    let p = qc.solve(&mesh, &field.frames)?;
+                    Ok(JobOutput::Parameterized(Box::new(p), analysis))
                 };
-                crate::param::parameterize(&mesh, fref, &crate::param::ParamOptions::default())
-                    .map(|p| JobOutput::Parameterized(Box::new(p)))
-                    .map_err(|e| e.to_string())
+                run().map_err(|e| e.to_string())
             })
             .for_generation(generation),
         );
@@ -332,7 +341,8 @@ impl EditorApp {
                 Ok(JobOutput::Exported(message)) => {
                     self.status = message;
                 }
-                Ok(JobOutput::Parameterized(p)) => {
+                Ok(JobOutput::Parameterized(p, analysis)) => {
+                    self.document.param_analysis = Some(analysis);
                     let n = p.symmetry as u32;
                     self.document.set_parameterization(*p);
                     let d = &mut self.document.display;

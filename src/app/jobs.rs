@@ -16,7 +16,11 @@ pub enum JobOutput {
     /// A field from `quadcover::field::compute_field`.
     FieldComputed(Box<crate::field::FieldResult>),
     /// A parameterization from `quadcover::param::parameterize`.
-    Parameterized(Box<crate::param::Parameterization>),
+    /// A parameterization, and the mesh's QuadCover analysis it used (kept for re-solves).
+    Parameterized(
+        Box<crate::param::Parameterization>,
+        std::sync::Arc<crate::param::ParamAnalysis>,
+    ),
     /// A file was written; the message says what and where.
     Exported(String),
 }
