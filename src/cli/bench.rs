@@ -24,6 +24,13 @@ pub struct BenchArgs {
     /// Largest size to run: 10k, 100k or 1m.
     #[arg(long, default_value = "1m")]
     pub up_to: String,
+    /// Run only the benchmark meshes whose name contains this (e.g. "x16"), each `--repeat`
+    /// times, and skip the remesh comparison: for comparing runs on a noisy machine.
+    #[arg(long)]
+    pub only: Option<String>,
+    /// Runs per mesh (with --only).
+    #[arg(long, default_value_t = 1)]
+    pub repeat: usize,
 }
 
 /// Peak resident memory of this process in MiB since the last [`reset_peak_memory`]
@@ -93,15 +100,31 @@ fn bench_meshes(args: &BenchArgs) -> Vec<(&'static str, &'static str, usize)> {
 pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     let mut rows = Vec::new();
     for (name, file, subdivisions) in bench_meshes(args) {
+        if args
+            .only
+            .as_ref()
+            .is_some_and(|o| !name.contains(o.as_str()))
+        {
+            continue;
+        }
         let mut mesh = load_mesh(&args.meshes.join(file))?.mesh;
         for _ in 0..subdivisions {
             mesh = subdivide(&mesh);
         }
         eprintln!("bench: {name} ({} triangles)", mesh.n_faces());
-        stages(&mut rows, name, &mesh)?;
+        let runs = if args.only.is_some() {
+            args.repeat.max(1)
+        } else {
+            1
+        };
+        for _ in 0..runs {
+            stages(&mut rows, name, &mesh)?;
+        }
     }
     print_table(&rows);
-    remesh_comparison(args)?;
+    if args.only.is_none() {
+        remesh_comparison(args)?;
+    }
     Ok(())
 }
 

@@ -205,11 +205,17 @@ impl<T: Scalar> SparseMatrix<T> {
 }
 
 /// faer parallelises supernodal factorizations with rayon by default. On the 2-core machines we
-/// target that is slower: a 90 000-unknown grid Laplacian factors in 120 ms sequentially and in
-/// 220 ms with rayon (`cargo test --release --lib factor_timing -- --ignored --nocapture`), and
-/// a 556 k-unknown Hermitian one in 1.6 s against 1.9 s. Independent factorizations run side by
-/// side instead (`rayon::join` in the callers).
+/// target that is slower for all but the largest systems: a 90 000-unknown grid Laplacian
+/// factors in 120 ms sequentially and in 220 ms with rayon (`cargo test --release --lib
+/// factor_timing -- --ignored --nocapture`). Independent factorizations run side by side instead
+/// (`rayon::join` in the callers), and solves stay sequential.
 const PAR: Par = Par::Seq;
+
+/// Factors with more entries than this (the million-triangle systems, 30–75 M entries) use
+/// rayon after all: when they run beside a smaller one, the core that one leaves idle joins in.
+/// Measured on bunny ×16 (1.1 M triangles, three runs each): the QuadCover pipeline took
+/// 15.1–16.3 s against 15.7–18.7 s sequentially.
+const PARALLEL_FACTOR_MIN: usize = 20_000_000;
 
 /// The symbolic analysis of a sparsity pattern (AMD fill-reducing ordering and elimination
 /// structure). It does not depend on the values nor on their type: one analysis serves a real
@@ -275,7 +281,12 @@ impl<T: Scalar> SpdSolver<T> {
         }
         let symbolic = &analysis.symbolic;
         let mut l_values = vec![T::ZERO; symbolic.len_val()];
-        let req = symbolic.factorize_numeric_llt_scratch::<T>(PAR, Default::default());
+        let par = if symbolic.len_val() > PARALLEL_FACTOR_MIN {
+            Par::rayon(0)
+        } else {
+            PAR
+        };
+        let req = symbolic.factorize_numeric_llt_scratch::<T>(par, Default::default());
         let mut mem = MemBuffer::try_new(req).map_err(|_| SolverError::OutOfMemory)?;
         symbolic
             .factorize_numeric_llt::<T>(
@@ -283,7 +294,7 @@ impl<T: Scalar> SpdSolver<T> {
                 matrix.as_faer(),
                 Side::Lower,
                 Default::default(),
-                PAR,
+                par,
                 MemStack::new(&mut mem),
                 Default::default(),
             )
