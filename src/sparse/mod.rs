@@ -283,13 +283,29 @@ impl<T: Scalar> SpdSolver<T> {
     }
 
     fn numeric(analysis: &Analysis, matrix: &SparseMatrix<T>) -> Result<Vec<T>, SolverError> {
+        Self::numeric_into(analysis, matrix, Vec::new())
+    }
+
+    /// The numeric factorization into `buffer` (reused when it has the right length: its pages
+    /// are already mapped, which saves a tenth of a second per 400 MB at a million triangles).
+    fn numeric_into(
+        analysis: &Analysis,
+        matrix: &SparseMatrix<T>,
+        buffer: Vec<T>,
+    ) -> Result<Vec<T>, SolverError> {
         if !matrix.same_pattern(analysis) {
             return Err(SolverError::Build(
                 "the matrix's sparsity pattern differs from the analysed one".into(),
             ));
         }
         let symbolic = &analysis.symbolic;
-        let mut l_values = zeroed_buffer::<T>(symbolic.len_val());
+        let mut l_values = if buffer.len() == symbolic.len_val() {
+            let mut b = buffer;
+            b.fill(T::ZERO);
+            b
+        } else {
+            zeroed_buffer::<T>(symbolic.len_val())
+        };
         let par = if symbolic.len_val() > PARALLEL_FACTOR_MIN {
             Par::rayon(0)
         } else {
@@ -319,7 +335,9 @@ impl<T: Scalar> SpdSolver<T> {
                 found: matrix.n(),
             });
         }
-        self.l_values = Self::numeric(&self.analysis, matrix)?;
+        // On failure the solver has no factor, and solves report that.
+        let buffer = std::mem::take(&mut self.l_values);
+        self.l_values = Self::numeric_into(&self.analysis, matrix, buffer)?;
         Ok(())
     }
 
@@ -341,8 +359,13 @@ impl<T: Scalar> SpdSolver<T> {
                 found: bad.len(),
             });
         }
-        let mut b = faer::Mat::<T>::from_fn(n, rhs.len(), |i, j| rhs[j][i]);
         let symbolic = &self.analysis.symbolic;
+        if self.l_values.len() != symbolic.len_val() {
+            return Err(SolverError::NotPositiveDefinite(
+                "the last refactorization failed; there is no factor to solve with".into(),
+            ));
+        }
+        let mut b = faer::Mat::<T>::from_fn(n, rhs.len(), |i, j| rhs[j][i]);
         let req = symbolic.solve_in_place_scratch::<T>(rhs.len(), PAR);
         let mut mem = MemBuffer::try_new(req).map_err(|_| SolverError::OutOfMemory)?;
         LltRef::<usize, T>::new(symbolic, &self.l_values).solve_in_place_with_conj(
@@ -520,6 +543,25 @@ mod tests {
         );
         b.add(2, 0, 1.0);
         assert!(matches!(b.build(), Err(SolverError::Build(_))));
+    }
+
+    #[test]
+    fn failed_refactor_leaves_an_error_not_a_panic() {
+        let build = |d: f64| {
+            let mut b = SparseBuilder::new(2);
+            b.add(0, 0, 1.0);
+            b.add(1, 1, d);
+            b.build().unwrap()
+        };
+        let mut s = SpdSolver::new(&build(1.0)).unwrap();
+        assert!(s.refactor(&build(-1.0)).is_err());
+        assert!(s.solve(&[1.0, 1.0]).is_err());
+        s.refactor(&build(2.0)).unwrap();
+        let x = s.solve(&[1.0, 1.0]).unwrap();
+        assert!(
+            (x[0] - 1.0).abs() < 1e-15 && (x[1] - 0.5).abs() < 1e-15,
+            "{x:?}"
+        );
     }
 
     #[test]
