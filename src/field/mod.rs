@@ -276,6 +276,50 @@ pub fn compute_field_then<T: Send>(
             return Err(FieldError::InvalidParameter(format!("{name} = {v}")));
         }
     }
+    // The smoothing systems' analysis (AMD ordering, the longest sequential step) depends on the
+    // mesh only: it runs on a thread of its own from the start, beside everything up to the
+    // assembly of the systems.
+    std::thread::scope(|scope| {
+        let pending = std::sync::Mutex::new(Some(
+            scope.spawn(|| dual_pattern(mesh).and_then(|m| Analysis::new(&m))),
+        ));
+        let done = std::sync::OnceLock::new();
+        let analysis = || -> Result<Analysis, SolverError> {
+            done.get_or_init(|| match pending.lock().ok().and_then(|mut p| p.take()) {
+                Some(handle) => handle.join().unwrap_or_else(|_| {
+                    Err(SolverError::Build("the analysis thread panicked".into()))
+                }),
+                None => Err(SolverError::Build("the analysis is not available".into())),
+            })
+            .clone()
+        };
+        field_with_analysis(mesh, params, next, &analysis)
+    })
+}
+
+/// The dual graph's pattern (faces adjacent across interior edges, and the diagonal), as
+/// [`smoothing::dual_system`] has it.
+fn dual_pattern(mesh: &TriMesh) -> Result<crate::sparse::SparseMatrix, SolverError> {
+    let nf = mesh.n_faces();
+    let mut b = crate::sparse::SparseBuilder::with_capacity(nf, nf + 4 * mesh.n_edges());
+    for i in 0..nf {
+        b.add(i, i, 1.0);
+    }
+    for e in 0..mesh.n_edges() {
+        if let (h0, Some(h1)) = mesh.edge_halfedges(e) {
+            let (i, j) = (mesh.face_of(h0), mesh.face_of(h1));
+            b.add_sym(i, j, 1.0);
+        }
+    }
+    b.build()
+}
+
+fn field_with_analysis<T: Send>(
+    mesh: &TriMesh,
+    params: &FieldParams,
+    next: impl FnOnce(&[i32]) -> T + Send,
+    analysis: &smoothing::AnalysisSource,
+) -> Result<(FieldResult, T), FieldError> {
     let n = params.symmetry.n();
     let mut timings = Vec::new();
     let mut clock = Instant::now();
@@ -286,14 +330,8 @@ pub fn compute_field_then<T: Send>(
     let bases = FaceBases::new(mesh);
     let tr = EdgeTransport::new(mesh, &bases);
     lap("bases + transport", &mut timings);
-    // The smoothing systems' analysis depends on the mesh only: computed beside the curvature.
-    let nf = mesh.n_faces();
-    let (analysis, curvature) = rayon::join(
-        || smoothing::dual_system(&tr, nf, |_| 1.0).and_then(|m| Analysis::new(&m)),
-        || Curvature::compute(mesh, &bases, params.curvature_smoothing),
-    );
-    let analysis = analysis?;
-    lap("curvature | smoothing analysis", &mut timings);
+    let curvature = Curvature::compute(mesh, &bases, params.curvature_smoothing);
+    lap("curvature", &mut timings);
     let (lo, hi) = mesh.bounding_box();
     let diag = (hi - lo).length().max(f64::MIN_POSITIVE);
     let (reference, cand, classes) =
@@ -328,7 +366,7 @@ pub fn compute_field_then<T: Send>(
         tau: params.tau,
         relaxation: params.relaxation,
         adjust_turns: (radius > 0.0).then_some(&cancel as &smoothing::AdjustTurns),
-        analysis: Some(&analysis),
+        analysis: Some(analysis),
         on_final_turns: Some(&on_final_turns),
     })?;
     timings.extend(sm.timings.iter().cloned());

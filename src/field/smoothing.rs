@@ -66,9 +66,10 @@ pub struct SmoothInput<'a> {
     /// turns (e.g. close singularity pairs cancelled, sec. 3.3) and faces whose alignment weight
     /// to drop, which get one more fixed-matching solve.
     pub adjust_turns: Option<&'a AdjustTurns<'a>>,
-    /// The analysis of [`dual_system`]'s pattern if already computed (it depends on the mesh
-    /// only, so callers can compute it while other work runs).
-    pub analysis: Option<&'a Analysis>,
+    /// Where the analysis of [`dual_system`]'s pattern comes from if it is computed elsewhere
+    /// (it depends on the mesh only, so callers compute it while other work runs); asked for
+    /// only once both systems are assembled.
+    pub analysis: Option<&'a AnalysisSource<'a>>,
     /// Called with the final turns as soon as they are known, on the other core while the
     /// last fixed-matching solve runs (a pipeline hands them to the parameterization there).
     pub on_final_turns: Option<&'a FinalTurnsHook<'a>>,
@@ -96,6 +97,9 @@ pub fn dual_system(
     }
     b.build()
 }
+
+/// See [`SmoothInput::analysis`].
+pub type AnalysisSource<'a> = dyn Fn() -> Result<Analysis, SolverError> + Sync + 'a;
 
 /// See [`SmoothInput::on_final_turns`].
 pub type FinalTurnsHook<'a> = dyn Fn(&[i64]) + Sync + 'a;
@@ -224,19 +228,31 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
     let mut timings = Vec::new();
     let clock = std::time::Instant::now();
     let fixed_matrix = system(&w, &is_anchor)?;
+    let relaxed_system = match inp.relaxation {
+        Relaxation::Complex => Some(relaxed_complex_system(inp, &w_relaxed, &anchor_relaxed)?),
+        Relaxation::SpanningForest => None,
+    };
+    timings.push((
+        "smoothing: assembly".to_string(),
+        clock.elapsed().as_secs_f64(),
+    ));
+    let clock = std::time::Instant::now();
     let analysis = match inp.analysis {
-        Some(a) => a.clone(),
+        Some(source) => source()?,
         None => Analysis::new(&fixed_matrix)?,
     };
     timings.push((
-        "smoothing: fixed-matching system".to_string(),
+        "smoothing: waiting for the analysis".to_string(),
         clock.elapsed().as_secs_f64(),
     ));
     let clock = std::time::Instant::now();
     let (relaxed, solver) = rayon::join(
-        || match inp.relaxation {
-            Relaxation::Complex => relaxed_complex(inp, &w_relaxed, &anchor_relaxed, &analysis),
-            Relaxation::SpanningForest => Ok(relaxed_forest(
+        || match &relaxed_system {
+            Some((matrix, rhs)) => {
+                let z = SpdSolver::with_analysis(analysis.clone(), matrix)?.solve(rhs)?;
+                Ok(z.iter().map(|z| z.arg() / inp.n as f64).collect())
+            }
+            None => Ok(relaxed_forest(
                 inp,
                 &w_relaxed,
                 &anchor_relaxed,
@@ -356,13 +372,13 @@ pub fn energies(
     (es, ea)
 }
 
-/// The relaxed solve; `analysis` is that of the fixed-matching system, which has this pattern.
-fn relaxed_complex(
+/// The relaxed system (complex, Hermitian) and its right-hand side; it has the pattern of the
+/// fixed-matching system, so that system's analysis serves it.
+fn relaxed_complex_system(
     inp: &SmoothInput,
     w: &[f64],
     is_anchor: &[bool],
-    analysis: &Analysis,
-) -> Result<Vec<f64>, SolverError> {
+) -> Result<(SparseMatrix<c64>, Vec<c64>), SolverError> {
     let nf = inp.theta0.len();
     let n = inp.n as f64;
     let tr = inp.transport;
@@ -385,8 +401,7 @@ fn relaxed_complex(
         b.add(j, i, -rho);
         b.add(i, j, -rho.conj());
     }
-    let z = SpdSolver::with_analysis(analysis.clone(), &b.build()?)?.solve(&rhs)?;
-    Ok(z.iter().map(|z| z.arg() / n).collect())
+    Ok((b.build()?, rhs))
 }
 
 fn relaxed_forest(
