@@ -26,7 +26,7 @@ use std::f64::consts::TAU;
 use serde::{Deserialize, Serialize};
 
 use super::transport::{EdgeTransport, NO_FACE};
-use crate::sparse::{Analysis, SolverError, SparseBuilder, SparseMatrix, SpdSolver, c64};
+use crate::sparse::{Analysis, Scalar, SolverError, SparseBuilder, SparseMatrix, SpdSolver, c64};
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Relaxation {
@@ -193,6 +193,63 @@ fn anchor_faces(w: &[f64], omega: &[f64], start: &[usize], adj: &[(u32, u32)]) -
     is_anchor
 }
 
+/// Where each entry of the dual systems sits in their shared value array, so that a system is
+/// written in place instead of sorting five million entries again (0.3 s a system at 1.1 M
+/// faces). Values accumulate exactly as [`dual_system`]'s builder sums them.
+struct DualLayout {
+    pattern: SparseMatrix,
+    diag: Vec<usize>,
+    /// Per interior edge: (edge, face i = faces[0], face j, position of (j, i), of (i, j)).
+    pairs: Vec<(usize, usize, usize, usize, usize)>,
+}
+
+impl DualLayout {
+    fn new(tr: &EdgeTransport, nf: usize) -> Result<DualLayout, SolverError> {
+        let pattern = dual_system(tr, nf, |_| 0.0)?;
+        let missing = || SolverError::Build("dual system entry missing from its pattern".into());
+        let diag = (0..nf)
+            .map(|i| pattern.position(i, i).ok_or_else(missing))
+            .collect::<Result<_, _>>()?;
+        let mut pairs = Vec::with_capacity(tr.faces.len());
+        for (e, f) in tr.faces.iter().enumerate() {
+            if f[1] != NO_FACE {
+                let (i, j) = (f[0] as usize, f[1] as usize);
+                let ji = pattern.position(j, i).ok_or_else(missing)?;
+                let ij = pattern.position(i, j).ok_or_else(missing)?;
+                pairs.push((e, i, j, ji, ij));
+            }
+        }
+        Ok(DualLayout {
+            pattern,
+            diag,
+            pairs,
+        })
+    }
+
+    /// Σ_e |x_j − ρ_e x_i|² + Σ_i d_i |x_i|² as a matrix: `off(e)` gives the entries −ρ_e at
+    /// (j, i) and −conj(ρ_e) at (i, j); ρ = 1 for the fixed-matching system, e^{iNκ} for the
+    /// relaxed one.
+    fn fill<T: Scalar>(
+        &self,
+        d: impl Fn(usize) -> T,
+        off: impl Fn(usize) -> (T, T),
+        one: T,
+    ) -> Result<SparseMatrix<T>, SolverError> {
+        let mut v = vec![T::ZERO; self.pattern.nnz()];
+        for (i, &p) in self.diag.iter().enumerate() {
+            v[p] += d(i);
+        }
+        for &(e, i, j, ji, ij) in &self.pairs {
+            v[self.diag[i]] += one;
+            v[self.diag[j]] += one;
+            let (a, b) = off(e);
+            v[ji] += a;
+            v[ij] += b;
+        }
+        self.pattern.with_values(v)
+    }
+}
+
 pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
     let nf = inp.theta0.len();
     let tr = inp.transport;
@@ -222,14 +279,24 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
     // depends on the matchings, so one factorisation serves all passes. It has the relaxed
     // system's pattern, so one analysis (the AMD ordering) serves both, and since it does not
     // depend on the relaxed solution it is factored on the other core meanwhile.
+    let layout = DualLayout::new(tr, nf)?;
     let system = |w: &[f64], is_anchor: &[bool]| {
-        dual_system(tr, nf, |i| w[i] + if is_anchor[i] { 1.0 } else { 0.0 })
+        layout.fill(
+            |i| w[i] + if is_anchor[i] { 1.0 } else { 0.0 },
+            |_| (-1.0, -1.0),
+            1.0,
+        )
     };
     let mut timings = Vec::new();
     let clock = std::time::Instant::now();
     let fixed_matrix = system(&w, &is_anchor)?;
     let relaxed_system = match inp.relaxation {
-        Relaxation::Complex => Some(relaxed_complex_system(inp, &w_relaxed, &anchor_relaxed)?),
+        Relaxation::Complex => Some(relaxed_complex_system(
+            inp,
+            &w_relaxed,
+            &anchor_relaxed,
+            &layout,
+        )?),
         Relaxation::SpanningForest => None,
     };
     timings.push((
@@ -378,30 +445,24 @@ fn relaxed_complex_system(
     inp: &SmoothInput,
     w: &[f64],
     is_anchor: &[bool],
+    layout: &DualLayout,
 ) -> Result<(SparseMatrix<c64>, Vec<c64>), SolverError> {
-    let nf = inp.theta0.len();
     let n = inp.n as f64;
     let tr = inp.transport;
-    let mut b = SparseBuilder::<c64>::with_capacity(nf, nf + 4 * tr.faces.len());
-    let mut rhs = vec![c64::new(0.0, 0.0); nf];
-    for i in 0..nf {
-        let d = w[i] + if is_anchor[i] { 1.0 } else { 0.0 };
-        b.add(i, i, c64::new(d, 0.0));
-        rhs[i] = c64::from_polar(d, n * inp.theta0[i]);
-    }
-    for (e, f) in tr.faces.iter().enumerate() {
-        if f[1] == NO_FACE {
-            continue;
-        }
-        let (i, j) = (f[0] as usize, f[1] as usize);
-        // |z_j − ρ z_i|², ρ = e^{iNκ_ij}: ones on the diagonal, −ρ at (j, i), −conj(ρ) at (i, j).
-        let rho = c64::from_polar(1.0, n * tr.kappa[e]);
-        b.add(i, i, c64::new(1.0, 0.0));
-        b.add(j, j, c64::new(1.0, 0.0));
-        b.add(j, i, -rho);
-        b.add(i, j, -rho.conj());
-    }
-    Ok((b.build()?, rhs))
+    let d = |i: usize| w[i] + if is_anchor[i] { 1.0 } else { 0.0 };
+    let rhs = (0..inp.theta0.len())
+        .map(|i| c64::from_polar(d(i), n * inp.theta0[i]))
+        .collect();
+    // |z_j − ρ z_i|², ρ = e^{iNκ_ij}: ones on the diagonal, −ρ at (j, i), −conj(ρ) at (i, j).
+    let matrix = layout.fill(
+        |i| c64::new(d(i), 0.0),
+        |e| {
+            let rho = c64::from_polar(1.0, n * tr.kappa[e]);
+            (-rho, -rho.conj())
+        },
+        c64::new(1.0, 0.0),
+    )?;
+    Ok((matrix, rhs))
 }
 
 fn relaxed_forest(

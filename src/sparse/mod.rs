@@ -200,6 +200,30 @@ impl<T: Scalar> SparseMatrix<T> {
             })
             .collect()
     }
+    /// Position of entry (i, j) in the value array, if it is stored.
+    pub fn position(&self, i: usize, j: usize) -> Option<usize> {
+        if j >= self.n {
+            return None;
+        }
+        let (a, b) = (self.col_ptr[j], self.col_ptr[j + 1]);
+        self.row_idx[a..b].binary_search(&i).ok().map(|k| a + k)
+    }
+    /// The same pattern with other values (`values[k]` for the k-th stored entry, as
+    /// [`Self::position`] numbers them): systems re-assembled often write values in place.
+    pub fn with_values<U: Scalar>(&self, values: Vec<U>) -> Result<SparseMatrix<U>, SolverError> {
+        if values.len() != self.values.len() {
+            return Err(SolverError::DimensionMismatch {
+                expected: self.values.len(),
+                found: values.len(),
+            });
+        }
+        Ok(SparseMatrix {
+            n: self.n,
+            col_ptr: self.col_ptr.clone(),
+            row_idx: self.row_idx.clone(),
+            values,
+        })
+    }
     fn same_pattern(&self, analysis: &Analysis) -> bool {
         analysis.pattern.0 == self.col_ptr && analysis.pattern.1 == self.row_idx
     }
