@@ -3,6 +3,7 @@
 use std::collections::{BTreeMap, HashMap};
 
 use glam::DVec3;
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::{ExtractError, ExtractOptions, Remesh, extract};
@@ -159,7 +160,7 @@ pub fn quality(remesh: &Remesh, input: &TriMesh) -> RemeshQuality {
     let diag = (hi - lo).length().max(1e-300);
     let locator = Locator::new(input);
     let d: Vec<f64> = samples
-        .iter()
+        .par_iter()
         .map(|&s| locator.distance(s) / diag)
         .collect();
     if !d.is_empty() {
@@ -194,11 +195,34 @@ impl<'a> Locator<'a> {
     fn new(mesh: &'a TriMesh) -> Self {
         let (lo, hi) = mesh.bounding_box();
         let ext = (hi - lo).max(DVec3::splat(1e-12));
-        let n = (mesh.n_faces() as f64).max(1.0);
-        let cell = (ext.x * ext.y * ext.z / n)
-            .cbrt()
-            .max(ext.max_element() / 200.0)
-            * 2.0;
+        // Cells about the size of a triangle, so that a query looks at a few dozen triangles;
+        // grown while triangles much larger than the mean would be entered in too many cells.
+        let ne = mesh.n_edges().max(1);
+        let mean_edge = (0..mesh.n_edges())
+            .map(|e| mesh.vector(mesh.edge_halfedges(e).0).length())
+            .sum::<f64>()
+            / ne as f64;
+        let boxes: Vec<(DVec3, DVec3)> = (0..mesh.n_faces())
+            .map(|f| {
+                let [a, b, c] = mesh.face(f).map(|v| mesh.position(v));
+                (a.min(b).min(c), a.max(b).max(c))
+            })
+            .collect();
+        let mut cell = (1.5 * mean_edge).max(ext.max_element() / 2000.0).max(1e-12);
+        let budget = 32 * mesh.n_faces() + 100_000;
+        loop {
+            let entries: usize = boxes
+                .iter()
+                .map(|(a, b)| {
+                    let n = ((*b - lo) / cell).floor() - ((*a - lo) / cell).floor() + DVec3::ONE;
+                    (n.x * n.y * n.z) as usize
+                })
+                .sum();
+            if entries <= budget {
+                break;
+            }
+            cell *= 1.5;
+        }
         let dims = [
             (ext.x / cell).ceil() as usize + 1,
             (ext.y / cell).ceil() as usize + 1,
@@ -213,9 +237,8 @@ impl<'a> Locator<'a> {
                 (r.z.max(0.0) as usize).min(dims[2] - 1),
             ]
         };
-        for f in 0..mesh.n_faces() {
-            let [a, b, c] = mesh.face(f).map(|v| mesh.position(v));
-            let (i0, i1) = (idx(a.min(b).min(c), dims), idx(a.max(b).max(c), dims));
+        for (f, (a, b)) in boxes.iter().enumerate() {
+            let (i0, i1) = (idx(*a, dims), idx(*b, dims));
             for x in i0[0]..=i1[0] {
                 for y in i0[1]..=i1[1] {
                     for z in i0[2]..=i1[2] {
@@ -236,12 +259,22 @@ impl<'a> Locator<'a> {
     fn distance(&self, p: DVec3) -> f64 {
         let r = (p - self.lo) / self.cell;
         let c = [r.x.floor() as i64, r.y.floor() as i64, r.z.floor() as i64];
+        // p's offset within its cell, in cells.
+        let frac = [r.x - c[0] as f64, r.y - c[1] as f64, r.z - c[2] as f64];
         let mut best = f64::INFINITY;
         let maxr = self.dims.iter().copied().max().unwrap_or(1) as i64 + 1;
         for ring in 0..=maxr {
-            // Points in rings beyond `ring` are at least (ring) * cell away.
-            if best <= (ring as f64 - 1.0).max(0.0) * self.cell {
-                break;
+            if ring > 0 {
+                // Everything not yet visited lies outside the block of cells within ring − 1
+                // of c, at least as far as that block's nearest face.
+                let k = (ring - 1) as f64;
+                let reach = (0..3)
+                    .map(|i| (frac[i] + k).min(1.0 - frac[i] + k))
+                    .fold(f64::INFINITY, f64::min)
+                    * self.cell;
+                if best <= reach {
+                    break;
+                }
             }
             for x in c[0] - ring..=c[0] + ring {
                 for y in c[1] - ring..=c[1] + ring {
@@ -300,4 +333,57 @@ fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
     let denom = 1.0 / (va + vb + vc);
     let (v, w) = (vb * denom, vc * denom);
     a + ab * v + ac * w
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::generate;
+
+    fn brute_force(mesh: &TriMesh, p: DVec3) -> f64 {
+        (0..mesh.n_faces())
+            .map(|f| {
+                let [a, b, c] = mesh.face(f).map(|v| mesh.position(v));
+                (closest_on_triangle(p, a, b, c) - p).length()
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// The grid search returns the exact nearest distance: near the surface, far from it, and on
+    /// a mesh whose triangles differ in size by a factor of a thousand.
+    #[test]
+    fn locator_matches_brute_force() {
+        let sphere = generate::icosphere(3);
+        let mut uneven = generate::grid(40, 40, 1.0, 1.0);
+        let mut p = uneven.positions().to_vec();
+        for q in &mut p {
+            q.x = q.x.powi(6) * 1000.0;
+        }
+        uneven = TriMesh::from_triangles(p, uneven.faces().to_vec()).unwrap();
+        for mesh in [&sphere, &uneven] {
+            let locator = Locator::new(mesh);
+            let (lo, hi) = mesh.bounding_box();
+            let mut seed = 7u64;
+            let mut rnd = || {
+                seed = seed
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (seed >> 11) as f64 / (1u64 << 53) as f64
+            };
+            for k in 0..400 {
+                let t = DVec3::new(rnd(), rnd(), rnd()) * 1.4 - DVec3::splat(0.2);
+                let mut q = lo + (hi - lo) * t;
+                if k % 2 == 0 {
+                    // near the surface: a vertex nudged
+                    let v = (rnd() * mesh.n_vertices() as f64) as usize % mesh.n_vertices();
+                    q = mesh.position(v) + (q - mesh.position(v)) * 1e-3;
+                }
+                let (a, b) = (locator.distance(q), brute_force(mesh, q));
+                assert!(
+                    (a - b).abs() <= 1e-12 * (1.0 + b),
+                    "{q:?}: grid {a}, exact {b}"
+                );
+            }
+        }
+    }
 }
