@@ -280,9 +280,13 @@ pub fn compute_field_then<T: Send>(
     // mesh only: it runs on a thread of its own from the start, beside everything up to the
     // assembly of the systems.
     std::thread::scope(|scope| {
-        let pending = std::sync::Mutex::new(Some(
-            scope.spawn(|| dual_pattern(mesh).and_then(|m| Analysis::new(&m))),
-        ));
+        let pending = std::sync::Mutex::new(Some(scope.spawn(|| {
+            let pairs = (0..mesh.n_edges()).filter_map(|e| match mesh.edge_halfedges(e) {
+                (h0, Some(h1)) => Some((mesh.face_of(h0), mesh.face_of(h1))),
+                _ => None,
+            });
+            smoothing::dual_pattern(mesh.n_faces(), pairs).and_then(|m| Analysis::new(&m))
+        })));
         let done = std::sync::OnceLock::new();
         let analysis = || -> Result<Analysis, SolverError> {
             done.get_or_init(|| match pending.lock().ok().and_then(|mut p| p.take()) {
@@ -295,23 +299,6 @@ pub fn compute_field_then<T: Send>(
         };
         field_with_analysis(mesh, params, next, &analysis)
     })
-}
-
-/// The dual graph's pattern (faces adjacent across interior edges, and the diagonal), as
-/// [`smoothing::dual_system`] has it.
-fn dual_pattern(mesh: &TriMesh) -> Result<crate::sparse::SparseMatrix, SolverError> {
-    let nf = mesh.n_faces();
-    let mut b = crate::sparse::SparseBuilder::with_capacity(nf, nf + 4 * mesh.n_edges());
-    for i in 0..nf {
-        b.add(i, i, 1.0);
-    }
-    for e in 0..mesh.n_edges() {
-        if let (h0, Some(h1)) = mesh.edge_halfedges(e) {
-            let (i, j) = (mesh.face_of(h0), mesh.face_of(h1));
-            b.add_sym(i, j, 1.0);
-        }
-    }
-    b.build()
 }
 
 fn field_with_analysis<T: Send>(
