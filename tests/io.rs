@@ -694,16 +694,29 @@ prop_compose! {
     }
 }
 
-fn fan(polys: &[Vec<u32>]) -> (Vec<[u32; 3]>, Vec<u32>) {
-    let mut t = Vec::new();
-    let mut src = Vec::new();
+/// Per polygon the fan apexes that fit the reader's triangles: those of polygon f must be
+/// (p_a, p_{a+k}, p_{a+k+1}), k = 1..n−2, for a corner a (several fit when vertices repeat).
+fn fan_apexes(polys: &[Vec<u32>], tris: &[[u32; 3]], src: &[u32]) -> Option<Vec<Vec<usize>>> {
+    let mut t = 0;
+    let mut apexes = Vec::new();
     for (f, p) in polys.iter().enumerate() {
-        for k in 1..p.len() - 1 {
-            t.push([p[0], p[k], p[k + 1]]);
-            src.push(f as u32);
+        let n = p.len();
+        let mine = tris.get(t..t + n - 2)?;
+        if src.get(t..t + n - 2)?.iter().any(|&s| s != f as u32) {
+            return None;
         }
+        let fits: Vec<usize> = (0..n)
+            .filter(|&a| {
+                (1..n - 1).all(|k| mine[k - 1] == [p[a], p[(a + k) % n], p[(a + k + 1) % n]])
+            })
+            .collect();
+        if fits.is_empty() {
+            return None;
+        }
+        apexes.push(fits);
+        t += n - 2;
     }
-    (t, src)
+    (t == tris.len()).then_some(apexes)
 }
 
 proptest! {
@@ -711,7 +724,6 @@ proptest! {
 
     #[test]
     fn prop_round_trip_all_writers((pos, polys, uv_pool) in random_mesh()) {
-        let (tris, src) = fan(&polys);
         let corners: usize = polys.iter().map(Vec::len).sum();
         // Corner UVs drawn from a pool so some are shared and some are not.
         let uvs: Vec<[f64; 2]> = (0..corners).map(|c| uv_pool[(c * 7) % 13]).collect();
@@ -719,19 +731,28 @@ proptest! {
         write_obj_to(&mut buf, &ObjOutput::new(&pos, &polys).with_uvs(&uvs)).unwrap();
         let d = read_obj_bytes(&buf).unwrap();
         prop_assert_eq!(bits(&d.soup.positions), bits(&pos));
-        prop_assert_eq!(&d.soup.triangles, &tris);
-        prop_assert_eq!(&d.soup.source_polygon, &src);
-        // Expected per-triangle-corner UVs from the per-polygon-corner ones.
-        let mut expected = Vec::new();
-        let mut c = 0;
-        for p in &polys {
-            for k in 1..p.len() - 1 {
-                expected.extend([uvs[c], uvs[c + k], uvs[c + k + 1]].map(|u| u.map(f64::to_bits)));
-            }
-            c += p.len();
-        }
+        let (tris, src) = (d.soup.triangles.clone(), d.soup.source_polygon.clone());
+        let apexes = fan_apexes(&polys, &tris, &src);
+        prop_assert!(apexes.is_some(), "not a fan per polygon: {:?}", tris);
+        let apexes = apexes.unwrap();
+        // Per polygon, the reader's triangle-corner UVs are the polygon-corner UVs around a
+        // fitting apex.
         let got: Vec<[u64; 2]> = d.corner_uvs.unwrap().iter().map(|u| u.map(f64::to_bits)).collect();
-        prop_assert_eq!(got, expected);
+        let (mut c, mut t) = (0, 0);
+        for (p, fits) in polys.iter().zip(&apexes) {
+            let n = p.len();
+            let at = |a: usize| -> Vec<[u64; 2]> {
+                (1..n - 1)
+                    .flat_map(|k| [a, (a + k) % n, (a + k + 1) % n])
+                    .map(|i| uvs[c + i].map(f64::to_bits))
+                    .collect()
+            };
+            let mine = &got[3 * t..3 * (t + n - 2)];
+            prop_assert!(fits.iter().any(|&a| at(a) == mine), "polygon UVs do not follow its fan");
+            c += n;
+            t += n - 2;
+        }
+        prop_assert_eq!(3 * t, got.len());
         for enc in [PlyEncoding::Ascii, PlyEncoding::BinaryLittleEndian] {
             let mut buf = Vec::new();
             write_ply_to(&mut buf, &pos, Faces::Polygons(&polys), enc).unwrap();
@@ -966,5 +987,30 @@ fn obj_reader_agrees_with_tobj() {
                 );
             }
         }
+    }
+}
+
+/// Two polygons sharing two consecutive edges (a vertex of degree two between them, as quad
+/// remeshes have at singularities): fans from the first corner would both use the diagonal across
+/// that vertex and make a non-manifold edge. The reader picks another apex for the second.
+#[test]
+fn polygons_sharing_two_edges_triangulate_to_a_manifold() {
+    // Quad 1-2-3-4 and hexagon 1-4-3-5-6-7 share the edges 1-4 and 4-3 (vertex 4 has degree 2).
+    let text = "v 0 0 0\nv 1 -1 0\nv 2 0 0\nv 1 0.2 0\nv 2 1 0\nv 1 2 0\nv 0 1 0\n\
+                f 1 2 3 4\nf 1 4 3 5 6 7\n";
+    let soup = read_obj_bytes(text.as_bytes()).unwrap().soup;
+    assert_eq!(soup.triangles.len(), 2 + 4);
+    let (mesh, _) = quadcover::mesh::TriMesh::from_soup(&soup).expect("manifold");
+    assert_eq!(mesh.n_faces(), 6);
+    assert_eq!(mesh.euler_characteristic(), 1, "a disc");
+    // The triangles cover each polygon once: per source polygon, n − 2 triangles using only
+    // its own vertices.
+    let polys: [&[u32]; 2] = [&[0, 1, 2, 3], &[0, 3, 2, 4, 5, 6]];
+    for (t, tri) in soup.triangles.iter().enumerate() {
+        let p = polys[soup.source_polygon[t] as usize];
+        assert!(
+            tri.iter().all(|v| p.contains(v)),
+            "{tri:?} outside its polygon"
+        );
     }
 }

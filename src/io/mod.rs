@@ -5,7 +5,8 @@
 //! - The whole file is read into memory, then parsed by a hand-written reader per format (see each
 //!   submodule for why). Readers never panic on any byte input: every slice access is checked and
 //!   counts announced by headers are only used to preallocate up to a bound given by the file size.
-//! - Polygons are fan-triangulated (`v0 v_i v_{i+1}`); `source_polygon` maps triangles back.
+//! - Polygons are fan-triangulated (`v_a v_{a+i} v_{a+i+1}`, apex a = 0 unless a diagonal from
+//!   there was already used, see `SoupBuilder`); `source_polygon` maps triangles back.
 //! - Readers check index ranges, polygon sizes and finiteness of coordinates; topology (manifold,
 //!   orientation, degenerate or duplicate faces) is checked later by `TriMesh::from_soup`.
 //! - [`read_mesh`] dispatches on the extension (case-insensitive) and falls back to sniffing the
@@ -144,6 +145,12 @@ pub fn read_mesh_bytes(bytes: &[u8], format: Format) -> Result<PolygonSoup, Read
 pub(crate) struct SoupBuilder {
     soup: PolygonSoup,
     polygons: usize,
+    /// Fan diagonals used so far and the edges of polygons with more than three sides: a fan
+    /// must not reuse either. Two polygons that share two consecutive edges (a vertex of degree
+    /// two between them, which remeshes have) would otherwise both get the diagonal across
+    /// that vertex, and the triangulated mesh a non-manifold edge.
+    diagonals: std::collections::HashSet<(u32, u32)>,
+    polygon_edges: std::collections::HashSet<(u32, u32)>,
 }
 
 impl SoupBuilder {
@@ -177,12 +184,13 @@ impl SoupBuilder {
         Ok(())
     }
 
-    /// Add a polygon of already range-checked vertex indices (fan triangulation).
+    /// Add a polygon of already range-checked vertex indices (fan triangulation); returns the
+    /// fan's apex corner a: the triangles are (v_a, v_{a+k}, v_{a+k+1}), k = 1..n−2, indices mod n.
     pub(crate) fn push_polygon(
         &mut self,
         verts: &[u32],
         line: Option<usize>,
-    ) -> Result<(), ReadError> {
+    ) -> Result<usize, ReadError> {
         let face = self.polygons;
         if verts.len() < 3 {
             return Err(ReadError::FaceTooSmall {
@@ -192,15 +200,40 @@ impl SoupBuilder {
             });
         }
         let poly = u32::try_from(face).map_err(|_| too_many("polygons"))?;
-        for w in verts[1..].windows(2) {
-            self.soup.triangles.push([verts[0], w[0], w[1]]);
+        let n = verts.len();
+        let key = |a: u32, b: u32| (a.min(b), a.max(b));
+        // Fan apex: the first corner whose diagonals are all new (corner 0 if none is).
+        let apex = if n == 3 {
+            0
+        } else {
+            (0..n)
+                .find(|&a| {
+                    (2..n - 1).all(|k| {
+                        let d = key(verts[a], verts[(a + k) % n]);
+                        !self.diagonals.contains(&d) && !self.polygon_edges.contains(&d)
+                    })
+                })
+                .unwrap_or(0)
+        };
+        for k in 1..n - 1 {
+            let (b, c) = (verts[(apex + k) % n], verts[(apex + k + 1) % n]);
+            self.soup.triangles.push([verts[apex], b, c]);
             self.soup.source_polygon.push(poly);
+        }
+        if n > 3 {
+            for k in 2..n - 1 {
+                self.diagonals
+                    .insert(key(verts[apex], verts[(apex + k) % n]));
+            }
+            for k in 0..n {
+                self.polygon_edges.insert(key(verts[k], verts[(k + 1) % n]));
+            }
         }
         if let Some(l) = line {
             self.soup.polygon_lines.push(line_u32(l));
         }
         self.polygons += 1;
-        Ok(())
+        Ok(apex)
     }
 
     pub(crate) fn warn(&mut self, w: String) {

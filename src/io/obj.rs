@@ -122,7 +122,7 @@ pub fn read_obj_bytes(bytes: &[u8]) -> Result<ObjData, ReadError> {
         for c in cs {
             poly.push(check_index(c.v, c.written, nv, face, Some(rec.line))?);
         }
-        builder.push_polygon(&poly, Some(rec.line))?;
+        let apex = builder.push_polygon(&poly, Some(rec.line))?;
         if with_uvs {
             let uv = |c: &Corner| -> Result<[f64; 2], ReadError> {
                 let t = c.vt.unwrap_or(-1);
@@ -139,10 +139,11 @@ pub fn read_obj_bytes(bytes: &[u8]) -> Result<ObjData, ReadError> {
                         ),
                     })
             };
-            for w in cs[1..].windows(2) {
-                corner_uvs.push(uv(&cs[0])?);
-                corner_uvs.push(uv(&w[0])?);
-                corner_uvs.push(uv(&w[1])?);
+            let n = cs.len();
+            for k in 1..n - 1 {
+                corner_uvs.push(uv(&cs[apex])?);
+                corner_uvs.push(uv(&cs[(apex + k) % n])?);
+                corner_uvs.push(uv(&cs[(apex + k + 1) % n])?);
             }
         }
     }
