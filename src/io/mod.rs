@@ -5,8 +5,10 @@
 //! - The whole file is read into memory, then parsed by a hand-written reader per format (see each
 //!   submodule for why). Readers never panic on any byte input: every slice access is checked and
 //!   counts announced by headers are only used to preallocate up to a bound given by the file size.
-//! - Polygons are fan-triangulated (`v_a v_{a+i} v_{a+i+1}`, apex a = 0 unless a diagonal from
-//!   there was already used, see `SoupBuilder`); `source_polygon` maps triangles back.
+//! - Polygons are fan-triangulated (`v_a v_{a+i} v_{a+i+1}`): apex a = 0 unless a diagonal from
+//!   there was already used or is an edge of the file (OBJ knows all its edges up front; the
+//!   streaming readers the edges of polygons read so far), see `SoupBuilder`; `source_polygon`
+//!   maps triangles back.
 //! - Readers check index ranges, polygon sizes and finiteness of coordinates; topology (manifold,
 //!   orientation, degenerate or duplicate faces) is checked later by `TriMesh::from_soup`.
 //! - [`read_mesh`] dispatches on the extension (case-insensitive) and falls back to sniffing the
@@ -161,6 +163,14 @@ impl SoupBuilder {
         b.soup.triangles.reserve(polygons);
         b.soup.source_polygon.reserve(polygons);
         b
+    }
+
+    /// Registers edges of polygons still to come, so that no fan diagonal lands on them (a
+    /// reader that knows all faces before triangulating calls this when some have more than
+    /// three sides).
+    pub(crate) fn known_edges(&mut self, edges: impl Iterator<Item = (u32, u32)>) {
+        self.polygon_edges
+            .extend(edges.map(|(a, b)| (a.min(b), a.max(b))));
     }
 
     pub(crate) fn vertex_count(&self) -> usize {

@@ -116,6 +116,20 @@ pub fn read_obj_bytes(bytes: &[u8]) -> Result<ObjData, ReadError> {
         });
     let mut corner_uvs = Vec::new();
     let mut poly: Vec<u32> = Vec::new();
+    if faces.iter().any(|f| f.len > 3) {
+        // Polygons: fan diagonals must avoid every edge of the file, later faces' included.
+        let valid = |c: &Corner| usize::try_from(c.v).ok().filter(|&i| i < nv);
+        for rec in &faces {
+            let cs = &corners[rec.start..rec.start + rec.len];
+            let edges = (0..cs.len()).filter_map(|k| {
+                Some((
+                    valid(&cs[k])? as u32,
+                    valid(&cs[(k + 1) % cs.len()])? as u32,
+                ))
+            });
+            builder.known_edges(edges);
+        }
+    }
     for (face, rec) in faces.iter().enumerate() {
         let cs = &corners[rec.start..rec.start + rec.len];
         poly.clear();
