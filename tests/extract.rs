@@ -408,3 +408,26 @@ fn absurdly_fine_grid_is_refused_before_any_work() {
     );
     assert!(t.elapsed().as_secs() < 5, "took {:?}", t.elapsed());
 }
+
+/// A written remesh reads back as the surface it came from: same genus and boundary loops. The
+/// bunny's remeshes have vertices of degree two between two polygons and patched holes written
+/// after the triangles, which the reader's triangulation must keep manifold.
+#[test]
+fn written_remeshes_read_back_with_the_input_topology() {
+    let Some(mesh) = shared("bunny.obj") else {
+        return;
+    };
+    let topo = |m: &TriMesh| {
+        let t = m.topology();
+        (t.genus, t.boundary_loops, t.components.len())
+    };
+    let dir = tempfile::tempdir().unwrap();
+    for n in [4, 6] {
+        let (remesh, _, _) = pipeline(&mesh, n, false);
+        let path = dir.path().join(format!("remesh-{n}.obj"));
+        let out = quadcover::io::ObjOutput::new(&remesh.positions, &remesh.faces);
+        quadcover::io::write_obj(&path, &out).unwrap();
+        let back = quadcover::load::load_mesh(&path).expect("the remesh loads");
+        assert_eq!(topo(&back.mesh), topo(&mesh), "N = {n}");
+    }
+}
