@@ -548,24 +548,9 @@ pub fn extract_grid(p: &Param, opts: &ExtractOptions) -> Remesh {
     let mut bad_traces = 0;
     for id in 0..np {
         for s in 0..len(id) {
-            match target(id, s) {
-                Some((q, j)) if target(q, j) == Some((id, s)) => {}
-                _ => {
-                    bad_traces += 1;
-                    if std::env::var("QC_DEBUG").is_ok() {
-                        let pt = &grid.points[id];
-                        eprintln!(
-                            "bad: {:?} pos {:?} s {s}/{} off {} target {:?} back {:?} slots {:?}",
-                            pt.owner,
-                            pt.pos,
-                            len(id),
-                            off(id),
-                            target(id, s),
-                            target(id, s).and_then(|(q, j)| target(q, j)),
-                            pt.slots.iter().map(|x| x.d).collect::<Vec<_>>()
-                        );
-                    }
-                }
+            let mutual = target(id, s).is_some_and(|(q, j)| target(q, j) == Some((id, s)));
+            if !mutual {
+                bad_traces += 1;
             }
         }
     }
