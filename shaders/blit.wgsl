@@ -1,5 +1,6 @@
 // Copies the renderer's resolved colour texture into egui's render pass
-// (the viewport rectangle is set by egui before the paint callback runs).
+// (the viewport rectangle is set by egui before the paint callback runs). The fullscreen
+// triangle: shaders/common.wgsl.
 
 @group(0) @binding(0) var src: texture_2d<f32>;
 @group(0) @binding(1) var src_sampler: sampler;
@@ -11,12 +12,10 @@ struct VsOut {
 
 @vertex
 fn vs_main(@builtin(vertex_index) i: u32) -> VsOut {
-    // one triangle covering the viewport
-    let x = f32((i << 1u) & 2u);
-    let y = f32(i & 2u);
+    let xy = fullscreen_xy(i);
     var out: VsOut;
-    out.clip = vec4<f32>(x * 2.0 - 1.0, 1.0 - y * 2.0, 0.0, 1.0);
-    out.uv = vec2<f32>(x, y);
+    out.clip = fullscreen_clip(xy);
+    out.uv = xy;
     return out;
 }
 

@@ -16,23 +16,7 @@
 // one whose LIC deviates most from the mean: each family keeps full contrast
 // and shows as woven streaks instead of being averaged into grey.
 
-struct Uniforms {
-    view_proj: mat4x4<f32>,
-    camera_pos: vec4<f32>,
-    light_dir: vec4<f32>,
-    base_color: vec4<f32>,
-    wire_color: vec4<f32>,
-    pattern_color: vec4<f32>,
-    // w lic noise cell size (px)
-    params: vec4<f32>,
-    // x lic strength, y lic length (cells)
-    params2: vec4<f32>,
-    // width, height, 1/width, 1/height (pixels)
-    viewport: vec4<f32>,
-    // w symmetry N
-    modes: vec4<u32>,
-    flags: vec4<u32>,
-}
+// Uniforms, PI and the fullscreen triangle: shaders/common.wgsl.
 
 @group(0) @binding(0) var<uniform> u: Uniforms;
 @group(1) @binding(0) var g_dirs: texture_2d<f32>;
@@ -44,14 +28,11 @@ struct VsOut {
 
 @vertex
 fn vs_main(@builtin(vertex_index) i: u32) -> VsOut {
-    let x = f32((i << 1u) & 2u);
-    let y = f32(i & 2u);
     var out: VsOut;
-    out.clip = vec4<f32>(x * 2.0 - 1.0, 1.0 - y * 2.0, 0.0, 1.0);
+    out.clip = fullscreen_clip(fullscreen_xy(i));
     return out;
 }
 
-const PI: f32 = 3.14159265358979;
 const MAX_STEPS: i32 = 32;
 // relative depth change per step that ends a streamline
 const DEPTH_JUMP: f32 = 0.03;

@@ -21,28 +21,7 @@
 //   6 octagon-square   4.8.8 tiling, octagons centred on Z^2 Z^2 x| C4
 //   7 image            user texture, repeat (invariant only if the image is)
 
-struct Uniforms {
-    view_proj: mat4x4<f32>,
-    // xyz camera position, w scene radius
-    camera_pos: vec4<f32>,
-    // xyz direction towards the light (world), w ambient
-    light_dir: vec4<f32>,
-    base_color: vec4<f32>,
-    // rgb, a = opacity
-    wire_color: vec4<f32>,
-    // rgb pattern line/ink colour, a = fill contrast
-    pattern_color: vec4<f32>,
-    // x pattern scale, y wire width px, z pattern line width px, w lic noise cell size (px)
-    params: vec4<f32>,
-    // x lic strength, y lic length (cells), z glyph size px, w overlay line width px
-    params2: vec4<f32>,
-    // width, height, 1/width, 1/height (pixels)
-    viewport: vec4<f32>,
-    // x shading (0 smooth, 1 flat), y pattern id, z wireframe on, w symmetry N
-    modes: vec4<u32>,
-    // x lic on, y has uv, z has field, w stripe twist n | k << 16 (sec. 4.2)
-    flags: vec4<u32>,
-}
+// Uniforms, PI and linear_to_srgb: shaders/common.wgsl.
 
 @group(0) @binding(0) var<uniform> u: Uniforms;
 @group(0) @binding(1) var pattern_tex: texture_2d<f32>;
@@ -83,16 +62,9 @@ fn vs_main(v: VsIn) -> VsOut {
     return out;
 }
 
-const PI: f32 = 3.14159265358979;
 const SQRT3_2: f32 = 0.86602540378;
 
 // ---------------------------------------------------------------- helpers
-
-fn linear_to_srgb(c: vec3<f32>) -> vec3<f32> {
-    let lo = c * 12.92;
-    let hi = 1.055 * pow(max(c, vec3<f32>(0.0)), vec3<f32>(1.0 / 2.4)) - 0.055;
-    return select(hi, lo, c <= vec3<f32>(0.0031308));
-}
 
 // Coverage of a line of width `width_px` pixels, given the distance `d` to the
 // line in pattern units and the pixel footprint `pix` in pattern units.

@@ -1,30 +1,8 @@
 // Overlays drawn over the surface: thick screen-space line segments (cut graph,
 // constraints, selection, field crosses) and disc glyphs at singular vertices.
-// Shares the Uniforms block layout with mesh.wgsl.
-
-struct Uniforms {
-    view_proj: mat4x4<f32>,
-    camera_pos: vec4<f32>,
-    light_dir: vec4<f32>,
-    base_color: vec4<f32>,
-    wire_color: vec4<f32>,
-    pattern_color: vec4<f32>,
-    params: vec4<f32>,
-    // x lic strength, y lic length, z glyph size px, w overlay line width px
-    params2: vec4<f32>,
-    // width, height, 1/width, 1/height (pixels)
-    viewport: vec4<f32>,
-    modes: vec4<u32>,
-    flags: vec4<u32>,
-}
+// Uniforms and linear_to_srgb: shaders/common.wgsl.
 
 @group(0) @binding(0) var<uniform> u: Uniforms;
-
-fn linear_to_srgb(c: vec3<f32>) -> vec3<f32> {
-    let lo = c * 12.92;
-    let hi = 1.055 * pow(max(c, vec3<f32>(0.0)), vec3<f32>(1.0 / 2.4)) - 0.055;
-    return select(hi, lo, c <= vec3<f32>(0.0031308));
-}
 
 // Move a world point towards the camera by `amount` scene radii so overlays
 // lying on the surface win the depth test without showing through it.

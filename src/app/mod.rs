@@ -46,7 +46,8 @@ pub fn run_editor(path: Option<std::path::PathBuf>) -> eframe::Result<()> {
 #[cfg(test)]
 mod shader_tests {
     /// Parses and validates every file in shaders/ with naga, so a new shader
-    /// cannot escape validation.
+    /// cannot escape validation: common.wgsl alone, every other file as the renderer
+    /// compiles it (common.wgsl prepended); and the renderer's sources are exactly those.
     #[test]
     fn all_shaders_validate() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
@@ -57,7 +58,12 @@ mod shader_tests {
             .collect();
         entries.sort();
         for path in entries {
-            let src = std::fs::read_to_string(&path).expect("shader is UTF-8 text");
+            let file = std::fs::read_to_string(&path).expect("shader is UTF-8 text");
+            let src = if path.ends_with("common.wgsl") {
+                file
+            } else {
+                format!("{}\n{file}", include_str!("../../shaders/common.wgsl"))
+            };
             assert_eq!(
                 path.extension().and_then(|e| e.to_str()),
                 Some("wgsl"),
@@ -73,6 +79,18 @@ mod shader_tests {
             .validate(&module)
             .unwrap_or_else(|e| panic!("{}:\n{}", path.display(), e.emit_to_string(&src)));
             count += 1;
+        }
+        for (name, src) in [
+            ("mesh", super::render::MESH_WGSL),
+            ("overlay", super::render::OVERLAY_WGSL),
+            ("blit", super::render::BLIT_WGSL),
+            ("lic", super::render::LIC_WGSL),
+        ] {
+            let file = std::fs::read_to_string(dir.join(format!("{name}.wgsl"))).unwrap();
+            assert!(
+                src.ends_with(&file),
+                "{name}.wgsl: the renderer compiles another source"
+            );
         }
         assert!(
             count >= 3,

@@ -17,10 +17,21 @@ pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 pub const SAMPLE_COUNT: u32 = 4;
 
-pub const MESH_WGSL: &str = include_str!("../../shaders/mesh.wgsl");
-pub const OVERLAY_WGSL: &str = include_str!("../../shaders/overlay.wgsl");
-pub const BLIT_WGSL: &str = include_str!("../../shaders/blit.wgsl");
-pub const LIC_WGSL: &str = include_str!("../../shaders/lic.wgsl");
+/// A shader's source: shaders/common.wgsl (the uniform block and shared helpers), then the file.
+macro_rules! shader {
+    ($file:literal) => {
+        concat!(
+            include_str!("../../shaders/common.wgsl"),
+            "\n",
+            include_str!(concat!("../../shaders/", $file))
+        )
+    };
+}
+
+pub const MESH_WGSL: &str = shader!("mesh.wgsl");
+pub const OVERLAY_WGSL: &str = shader!("overlay.wgsl");
+pub const BLIT_WGSL: &str = shader!("blit.wgsl");
+pub const LIC_WGSL: &str = shader!("lic.wgsl");
 /// Format of the LIC G-buffer (screen directions, noise, depth) and of the LIC result.
 pub const LIC_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
