@@ -290,6 +290,30 @@ fn glyph_attrs() -> [wgpu::VertexAttribute; 2] {
     wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4]
 }
 
+/// A 2-D float texture read by the fragment stage.
+pub(crate) fn fragment_texture_entry(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// A filtering sampler used by the fragment stage.
+pub(crate) fn fragment_sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+        count: None,
+    }
+}
+
 impl Renderer {
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Renderer {
         let mesh_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -319,38 +343,15 @@ impl Renderer {
             label: Some("quadcover mesh bgl"),
             entries: &[
                 uniform_entry,
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
+                fragment_texture_entry(1, true),
+                fragment_sampler_entry(2),
             ],
         });
         let overlay_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("quadcover overlay bgl"),
             entries: &[uniform_entry],
         });
-        let texture_entry = |binding| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                view_dimension: wgpu::TextureViewDimension::D2,
-                multisampled: false,
-            },
-            count: None,
-        };
+        let texture_entry = |binding| fragment_texture_entry(binding, false);
         let target_layouts = TargetLayouts {
             gbuffer: device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("quadcover lic gbuffer bgl"),

@@ -5,7 +5,10 @@
 use std::sync::Arc;
 
 use super::camera::OrbitCamera;
-use super::render::{BLIT_WGSL, RenderTarget, Renderer, fullscreen_pipeline};
+use super::render::{
+    BLIT_WGSL, RenderTarget, Renderer, fragment_sampler_entry, fragment_texture_entry,
+    fullscreen_pipeline,
+};
 use super::scene::SceneData;
 use super::settings::DisplaySettings;
 
@@ -34,24 +37,7 @@ impl ViewportResources {
         });
         let blit_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("quadcover blit bgl"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
-            ],
+            entries: &[fragment_texture_entry(0, true), fragment_sampler_entry(1)],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("quadcover blit layout"),
