@@ -2,8 +2,6 @@
 //! adapter they print a message and pass, unless QUADCOVER_REQUIRE_GPU=1.
 //! Images are written to target/render-tests/.
 
-use std::path::PathBuf;
-
 use glam::{DVec2, DVec3, Vec3};
 use quadcover::app::camera::OrbitCamera;
 use quadcover::app::document::{
@@ -13,30 +11,12 @@ use quadcover::app::render::Offscreen;
 use quadcover::app::scene::{Glyph, LineSegment, SceneData, singularity_color};
 use quadcover::app::settings::{DisplayMode, DisplaySettings, Pattern, Shading};
 use quadcover::app::viewport::ViewportResources;
+use support::{out_dir, shared_mesh};
+
+mod support;
 
 fn offscreen() -> Option<Offscreen> {
-    match Offscreen::new() {
-        Ok(o) => {
-            eprintln!("adapter: {:?}", o.adapter_info);
-            Some(o)
-        }
-        Err(e) => {
-            if std::env::var("QUADCOVER_REQUIRE_GPU").as_deref() == Ok("1") {
-                panic!("QUADCOVER_REQUIRE_GPU=1 but {e}");
-            }
-            eprintln!("skipping render test: {e}");
-            None
-        }
-    }
-}
-
-fn out_dir() -> PathBuf {
-    let target = std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target"));
-    let dir = target.join("render-tests");
-    std::fs::create_dir_all(&dir).expect("create target/render-tests");
-    dir
+    support::offscreen("skipping render test")
 }
 
 fn save(img: &image::RgbaImage, name: &str) {
@@ -692,7 +672,7 @@ fn lic_of_constant_cross_field_shows_both_directions() {
 #[test]
 fn lic_of_computed_bunny_fields() {
     let Some(mut off) = offscreen() else { return };
-    let path = PathBuf::from("/work/shared/meshes/bunny.obj");
+    let path = shared_mesh("bunny.obj");
     if !path.exists() {
         eprintln!("skipping: {} not found", path.display());
         return;

@@ -9,21 +9,9 @@ use egui_kittest::kittest::Queryable;
 use quadcover::app::editor::ExportKind;
 use quadcover::app::settings::{DisplayMode, Pattern, Shading};
 use quadcover::app::{EditorApp, EditorOptions};
+use support::{out_dir, shared_mesh};
 
-fn shared_mesh(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/meshes")
-        .join(name)
-}
-
-fn out_dir() -> PathBuf {
-    let target = std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target"));
-    let dir = target.join("render-tests");
-    std::fs::create_dir_all(&dir).expect("create target/render-tests");
-    dir
-}
+mod support;
 
 fn harness(recent: &Path, open: Option<PathBuf>) -> Harness<'static, EditorApp> {
     harness_with(recent, open, false)
@@ -56,16 +44,7 @@ fn gpu_available() -> bool {
 }
 
 fn probe_gpu() -> bool {
-    match quadcover::app::render::Offscreen::new() {
-        Ok(_) => true,
-        Err(e) => {
-            if std::env::var("QUADCOVER_REQUIRE_GPU").as_deref() == Ok("1") {
-                panic!("QUADCOVER_REQUIRE_GPU=1 but {e}");
-            }
-            eprintln!("no GPU adapter, UI tests run without rendering: {e}");
-            false
-        }
-    }
+    support::offscreen("no GPU adapter, UI tests run without rendering").is_some()
 }
 
 /// Steps the UI until no background job runs (or a timeout).
