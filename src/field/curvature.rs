@@ -51,13 +51,26 @@ fn smooth_vertex_tensors(mesh: &TriMesh, vs: &[Sym3]) -> Vec<Sym3> {
         .into_par_iter()
         .map(|v| {
             let mut s = vs[v];
-            let ring = mesh.one_ring(v);
-            for &u in &ring {
+            let mut count = 1usize;
+            let mut add = |u: usize| {
                 for k in 0..6 {
                     s[k] += vs[u][k];
                 }
+                count += 1;
+            };
+            // The one ring without collecting it (a vector per vertex and pass was half the
+            // curvature time at a million faces).
+            let mut last = None;
+            for h in mesh.outgoing(v) {
+                add(mesh.to(h));
+                last = Some(h);
             }
-            s.map(|x| x / (1 + ring.len()) as f64)
+            if mesh.is_boundary_vertex(v)
+                && let Some(last) = last
+            {
+                add(mesh.from(mesh.prev(last)));
+            }
+            s.map(|x| x / count as f64)
         })
         .collect()
 }
@@ -101,29 +114,23 @@ impl Curvature {
         // Vertex shape operator: sum over incident edges, normalised by (2/3) of the star area so
         // that the integrated edge quantities become curvatures (each edge is counted at two
         // vertices and each face at three).
-        let mut vs = vec![[0.0; 6]; nv];
-        for (e, s) in edge_s.iter().enumerate() {
-            if let Some(s) = s {
-                for v in mesh.edge_vertices(e) {
-                    for k in 0..6 {
-                        vs[v][k] += s[k];
+        // Per vertex, in parallel: the outgoing halfedges reach every incident edge but a
+        // boundary vertex's incoming boundary edge, which contributes nothing, and every
+        // incident face once.
+        let mut vs: Vec<Sym3> = (0..nv)
+            .into_par_iter()
+            .map(|v| {
+                let (mut s, mut star) = ([0.0; 6], 0.0);
+                for h in mesh.outgoing(v) {
+                    if let Some(es) = &edge_s[mesh.edge(h)] {
+                        for k in 0..6 {
+                            s[k] += es[k];
+                        }
                     }
+                    star += mesh.face_area(mesh.face_of(h));
                 }
-            }
-        }
-        let mut star = vec![0.0; nv];
-        for f in 0..mesh.n_faces() {
-            let a = mesh.face_area(f);
-            for v in mesh.face(f) {
-                star[v] += a;
-            }
-        }
-        let mut vs: Vec<Sym3> = vs
-            .iter()
-            .zip(&star)
-            .map(|(s, &a)| {
-                if a > 0.0 {
-                    s.map(|x| x * 1.5 / a)
+                if star > 0.0 {
+                    s.map(|x| x * 1.5 / star)
                 } else {
                     [0.0; 6]
                 }
