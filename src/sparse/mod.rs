@@ -1,6 +1,8 @@
 //! The one sparse-solver wrapper: symmetric positive definite systems through faer's sparse
 //! Cholesky, with the symbolic analysis kept so that re-solves with new values (same pattern)
 //! or new right-hand sides skip it. Fields, parameterization and extraction all solve here.
+//! [`Multigrid`] serves systems that need only an approximate solution (the field's relaxed
+//! solve), where a factorization would cost more than it buys.
 
 use std::sync::Arc;
 
@@ -13,6 +15,9 @@ use faer::{Conj, Par, Side};
 
 pub use faer::c64;
 use thiserror::Error;
+
+pub mod multigrid;
+pub use multigrid::{IterativeSolution, Multigrid};
 
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum SolverError {
@@ -45,12 +50,24 @@ pub trait Scalar:
     + PartialEq
     + std::fmt::Debug
     + std::ops::AddAssign
+    + std::ops::SubAssign
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Neg<Output = Self>
     + std::ops::Mul<Output = Self>
     + bytemuck::Zeroable
     + 'static
 {
     const ZERO: Self;
     fn finite(self) -> bool;
+    /// The complex conjugate (the value itself for reals).
+    fn conjugate(self) -> Self;
+    /// |x|².
+    fn modulus_sq(self) -> f64;
+    fn real_part(self) -> f64;
+    fn from_real(x: f64) -> Self;
+    /// x · s for a real s.
+    fn scaled(self, s: f64) -> Self;
 }
 
 impl Scalar for f64 {
@@ -58,12 +75,42 @@ impl Scalar for f64 {
     fn finite(self) -> bool {
         self.is_finite()
     }
+    fn conjugate(self) -> f64 {
+        self
+    }
+    fn modulus_sq(self) -> f64 {
+        self * self
+    }
+    fn real_part(self) -> f64 {
+        self
+    }
+    fn from_real(x: f64) -> f64 {
+        x
+    }
+    fn scaled(self, s: f64) -> f64 {
+        self * s
+    }
 }
 
 impl Scalar for c64 {
     const ZERO: c64 = c64::new(0.0, 0.0);
     fn finite(self) -> bool {
         self.re.is_finite() && self.im.is_finite()
+    }
+    fn conjugate(self) -> c64 {
+        c64::new(self.re, -self.im)
+    }
+    fn modulus_sq(self) -> f64 {
+        self.re * self.re + self.im * self.im
+    }
+    fn real_part(self) -> f64 {
+        self.re
+    }
+    fn from_real(x: f64) -> c64 {
+        c64::new(x, 0.0)
+    }
+    fn scaled(self, s: f64) -> c64 {
+        c64::new(self.re * s, self.im * s)
     }
 }
 
@@ -174,6 +221,10 @@ impl<T: Scalar> SparseMatrix<T> {
     }
     pub fn nnz(&self) -> usize {
         self.values.len()
+    }
+    /// The stored values, column by column (see [`Self::position`]).
+    pub fn values(&self) -> &[T] {
+        &self.values
     }
     fn pattern(&self) -> SymbolicSparseColMatRef<'_, usize> {
         SymbolicSparseColMatRef::new_checked(self.n, self.n, &self.col_ptr, None, &self.row_idx)
