@@ -244,8 +244,8 @@ pub fn compute_field(mesh: &TriMesh, params: &FieldParams) -> Result<FieldResult
 }
 
 /// [`compute_field`], handing the final matchings to `next` as soon as they are known: `next`
-/// runs on the other core while the field's last solve (angles only) finishes. A pipeline uses
-/// it to start the parameterization's factorizations, which need only the matchings.
+/// runs on the other core while the field's singularities are found. A pipeline uses it to
+/// start the parameterization's factorizations, which need only the matchings.
 pub fn compute_field_then<T: Send>(
     mesh: &TriMesh,
     params: &FieldParams,
@@ -334,17 +334,6 @@ fn field_with_analysis<T: Send>(
     let cancel = |theta: &[f64], turns: &[i64]| {
         cancel::cancel_close_pairs(mesh, &tr, theta, turns, n, radius)
     };
-    let next = std::sync::Mutex::new(Some(next));
-    let handed_on = std::sync::Mutex::new(None);
-    let hand_on = |matchings: &[i32]| {
-        if let Some(next) = next.lock().ok().and_then(|mut n| n.take()) {
-            let out = next(matchings);
-            if let Ok(mut slot) = handed_on.lock() {
-                *slot = Some(out);
-            }
-        }
-    };
-    let on_final_turns = |turns: &[i64]| hand_on(&reduce_matchings(&tr, turns, n));
     let sm = smoothing::smooth(&smoothing::SmoothInput {
         n,
         transport: &tr,
@@ -354,7 +343,6 @@ fn field_with_analysis<T: Send>(
         relaxation: params.relaxation,
         adjust_turns: (radius > 0.0).then_some(&cancel as &smoothing::AdjustTurns),
         analysis: Some(analysis),
-        on_final_turns: Some(&on_final_turns),
     })?;
     timings.extend(sm.timings.iter().cloned());
     clock = Instant::now();
@@ -366,16 +354,18 @@ fn field_with_analysis<T: Send>(
         matchings,
     };
     timings.push(("density + frames".into(), clock.elapsed().as_secs_f64()));
-    let clock = Instant::now();
-    let indices = index::indices_from_angles(mesh, &tr, &sm.theta, &field.matchings, n);
-    timings.push(("singularities".into(), clock.elapsed().as_secs_f64()));
-    // The hook runs once the turns are final; should it not have, hand on now.
-    hand_on(&field.matchings);
-    let handed_on = handed_on
-        .into_inner()
-        .ok()
-        .flatten()
-        .ok_or_else(|| FieldError::InvalidParameter("field pipeline lost its result".into()))?;
+    // The matchings are final: the next stage starts on a thread of its own meanwhile.
+    let (indices, seconds, handed_on) = std::thread::scope(|scope| {
+        let handle = scope.spawn(|| next(&field.matchings));
+        let clock = Instant::now();
+        let indices = index::indices_from_angles(mesh, &tr, &sm.theta, &field.matchings, n);
+        let seconds = clock.elapsed().as_secs_f64();
+        handle
+            .join()
+            .map(|handed_on| (indices, seconds, handed_on))
+            .map_err(|_| FieldError::InvalidParameter("the next pipeline stage panicked".into()))
+    })?;
+    timings.push(("singularities".into(), seconds));
     let result = FieldResult {
         field,
         theta: sm.theta,
