@@ -381,14 +381,11 @@ impl<T: Scalar> SpdSolver<T> {
         } else {
             zeroed_buffer::<T>(symbolic.len_val())
         };
-        let par = if symbolic.len_val() > PARALLEL_FACTOR_MIN {
-            Par::rayon(0)
-        } else {
-            PAR
-        };
+        let parallel = symbolic.len_val() > PARALLEL_FACTOR_MIN;
+        let par = if parallel { Par::rayon(0) } else { PAR };
         let req = symbolic.factorize_numeric_llt_scratch::<T>(par, Default::default());
         let mut mem = MemBuffer::try_new(req).map_err(|_| SolverError::OutOfMemory)?;
-        symbolic
+        let result = symbolic
             .factorize_numeric_llt::<T>(
                 &mut l_values,
                 matrix.as_faer(),
@@ -398,7 +395,15 @@ impl<T: Scalar> SpdSolver<T> {
                 MemStack::new(&mut mem),
                 Default::default(),
             )
-            .map_err(|e| SolverError::NotPositiveDefinite(format!("{e:?}")))?;
+            .map_err(|e| SolverError::NotPositiveDefinite(format!("{e:?}")));
+        clear_upper_vector_state();
+        if parallel {
+            // The rayon workers ran faer's kernels: each clears its own registers when it picks
+            // this up (not a blocking broadcast, which would wait for a worker busy with the
+            // other side of a join).
+            rayon::spawn_broadcast(|_| clear_upper_vector_state());
+        }
+        result?;
         Ok(l_values)
     }
 
@@ -449,6 +454,7 @@ impl<T: Scalar> SpdSolver<T> {
             PAR,
             MemStack::new(&mut mem),
         );
+        clear_upper_vector_state();
         let out: Vec<Vec<T>> = (0..rhs.len())
             .map(|j| (0..n).map(|i| b[(i, j)]).collect())
             .collect();
@@ -457,6 +463,22 @@ impl<T: Scalar> SpdSolver<T> {
         } else {
             Err(SolverError::NonFinite)
         }
+    }
+}
+
+/// Clears the upper halves of the vector registers (`vzeroupper`) of the calling thread. faer's
+/// dense kernels (AVX-512 on the machines we measure on) can return with them dirty, and then
+/// every legacy-SSE instruction on that thread — all of our baseline-x86-64 f64 code and libm —
+/// pays a state-transition penalty: after a million-face factorization, glibc's atan2 ran
+/// 15–20× slower on the rayon workers and the per-vertex angle defects 5× slower, until this
+/// was done. (The same penalty is why BLIS and oneDNN end their kernels with vzeroupper.)
+fn clear_upper_vector_state() {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: vzeroupper needs only AVX, which the CPU was just found to support. It zeroes
+        // bits 128 and up of the vector registers, which this crate's code (compiled for
+        // baseline x86-64, SSE2 only) never keeps values in.
+        unsafe { std::arch::x86_64::_mm256_zeroupper() }
     }
 }
 
