@@ -298,16 +298,23 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
         Relaxation::Complex => {
             let (matrix, rhs) = relaxed_complex_system(inp, &w_relaxed, &anchor_relaxed, &layout)?;
             lap("smoothing: assembly".into(), &mut timings);
-            let z = Multigrid::new(&matrix)?
-                .solve(&rhs, None, relaxed_tolerance(tau), RELAXED_MAX_ITERATIONS)?
-                .x;
-            z.iter().map(|z| z.arg() / inp.n as f64).collect()
+            let hierarchy = Multigrid::new(&matrix)?;
+            drop(matrix);
+            lap("smoothing: relaxed multigrid setup".into(), &mut timings);
+            let solution =
+                hierarchy.solve(&rhs, None, relaxed_tolerance(tau), RELAXED_MAX_ITERATIONS)?;
+            lap(
+                format!("smoothing: relaxed CG ({} iterations)", solution.iterations),
+                &mut timings,
+            );
+            solution.x.iter().map(|z| z.arg() / inp.n as f64).collect()
         }
         Relaxation::SpanningForest => {
-            relaxed_forest(inp, &w_relaxed, &anchor_relaxed, &start, &adj)
+            let theta = relaxed_forest(inp, &w_relaxed, &anchor_relaxed, &start, &adj);
+            lap("smoothing: relaxed spanning forest".into(), &mut timings);
+            theta
         }
     };
-    lap("smoothing: relaxed solve".into(), &mut timings);
     // Alignment targets: the representative of θ⁰ (mod 2π/N) nearest the relaxed angle.
     let target: Vec<f64> = (0..nf)
         .map(|i| inp.theta0[i] + step * ((relaxed[i] - inp.theta0[i]) / step).round())

@@ -158,21 +158,25 @@ impl<T: Scalar> Csr<T> {
         }
     }
 
-    /// self · other, row by row with a dense accumulator per task.
-    fn product(&self, other: &Csr<T>) -> Csr<T> {
-        let nc = other.n_cols;
+    /// The Galerkin product R A P (R = Pᴴ = self) row by row, without forming A P: coarse row
+    /// I sums r_Ii a_ik p_kJ over the fine rows i of aggregate I's column of P.
+    fn galerkin(&self, a: &Csr<T>, p: &Csr<T>) -> Csr<T> {
+        let nc = p.n_cols;
         Csr::from_rows(
             self.n_rows(),
             nc,
             || (vec![T::ZERO; nc], vec![false; nc], Vec::<u32>::new()),
-            |i, (acc, seen, touched), out| {
-                for (k, a) in self.row(i) {
-                    for (c, b) in other.row(k) {
-                        if !seen[c] {
-                            seen[c] = true;
-                            touched.push(c as u32);
+            |row, (acc, seen, touched), out| {
+                for (i, r) in self.row(row) {
+                    for (k, a) in a.row(i) {
+                        let ra = r * a;
+                        for (c, p) in p.row(k) {
+                            if !seen[c] {
+                                seen[c] = true;
+                                touched.push(c as u32);
+                            }
+                            acc[c] += ra * p;
                         }
-                        acc[c] += a * b;
                     }
                 }
                 touched.sort_unstable();
@@ -360,7 +364,7 @@ impl<T: Scalar> Multigrid<T> {
                 out.extend(acc.iter().copied());
             });
             let r = p.adjoint();
-            let coarse = r.product(&a.product(&p));
+            let coarse = r.galerkin(&a, &p);
             levels.push(Level { a, diag, p, r });
             a = coarse;
         }
