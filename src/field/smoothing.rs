@@ -108,8 +108,8 @@ const MAX_PASSES: usize = 50;
 /// rounding of the matchings (and which representative of the curvature direction each face is
 /// aligned to). Against the direct solve, on the shared meshes for N = 2, 4, 6 and on the bunny
 /// subdivided to 1.1 M faces, 1e-3 left every singularity count equal (one fewer pair on
-/// cerebral-vessels, N = 6) and E_smooth within 0.5 % either way, in 5–9 iterations; 1e-4 takes
-/// ~40 % more iterations for differences below 0.05 %.
+/// cerebral-vessels, N = 6) and E_smooth at most 0.45 % higher (up to 1.3 % lower), in 5–9
+/// iterations; 1e-4 takes ~40 % more iterations for smaller differences.
 const RELAXED_TOLERANCE: f64 = 1e-3;
 /// [`RELAXED_TOLERANCE`] for the alignment weight τ: the right-hand side grows with τ while the
 /// part of the solution that decides the rounding, its smooth propagation away from the reliable
