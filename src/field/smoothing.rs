@@ -86,14 +86,52 @@ pub fn dual_pattern(
     nf: usize,
     pairs: impl Iterator<Item = (usize, usize)>,
 ) -> Result<SparseMatrix, SolverError> {
-    let mut b = SparseBuilder::with_capacity(nf, 5 * nf);
-    for i in 0..nf {
-        b.add(i, i, 0.0);
+    let pairs: Vec<(usize, usize)> = pairs.collect();
+    if let Some(&(i, j)) = pairs.iter().find(|&&(i, j)| i >= nf || j >= nf || i == j) {
+        return Err(SolverError::Build(format!(
+            "dual pair ({i}, {j}) is not two distinct faces of {nf}"
+        )));
     }
-    for (i, j) in pairs {
-        b.add_sym(i, j, 0.0);
+    // Counted straight into compressed columns (column f: f and its neighbours, at most four
+    // entries, sorted in place): sorting five million triplets took 0.2 s at a million faces.
+    let mut col_ptr = vec![0usize; nf + 1];
+    for &(i, j) in &pairs {
+        col_ptr[i + 1] += 1;
+        col_ptr[j + 1] += 1;
     }
-    b.build()
+    for f in 0..nf {
+        col_ptr[f + 1] += col_ptr[f] + 1;
+    }
+    let mut row_idx = vec![0usize; col_ptr[nf]];
+    let mut fill: Vec<usize> = col_ptr[..nf].to_vec();
+    for f in 0..nf {
+        row_idx[fill[f]] = f;
+        fill[f] += 1;
+    }
+    for &(i, j) in &pairs {
+        row_idx[fill[i]] = j;
+        fill[i] += 1;
+        row_idx[fill[j]] = i;
+        fill[j] += 1;
+    }
+    let mut repeated = false;
+    for f in 0..nf {
+        let rows = &mut row_idx[col_ptr[f]..col_ptr[f + 1]];
+        rows.sort_unstable();
+        repeated |= rows.windows(2).any(|w| w[0] == w[1]);
+    }
+    if repeated {
+        // Two faces sharing two edges (a two-triangle pillow): one entry for both.
+        let mut b = SparseBuilder::with_capacity(nf, row_idx.len());
+        for f in 0..nf {
+            for &g in &row_idx[col_ptr[f]..col_ptr[f + 1]] {
+                b.add(g, f, 0.0);
+            }
+        }
+        return b.build();
+    }
+    let values = vec![0.0; row_idx.len()];
+    SparseMatrix::from_columns(nf, col_ptr, row_idx, values)
 }
 
 /// See [`SmoothInput::analysis`].
@@ -489,4 +527,46 @@ fn relaxed_forest(
         }
     }
     theta
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::transport::FaceBases;
+    use crate::mesh::generate::torus_alternating;
+
+    /// The pattern counted straight into columns equals the one assembled from triplets, also
+    /// when two faces are paired twice (a two-triangle pillow shares two edges).
+    #[test]
+    fn dual_pattern_equals_the_triplet_assembly() {
+        let mesh = torus_alternating(3.0, 1.0, 12, 6);
+        let tr = EdgeTransport::new(&mesh, &FaceBases::new(&mesh));
+        let pairs: Vec<(usize, usize)> = tr
+            .faces
+            .iter()
+            .filter(|f| f[1] != NO_FACE)
+            .map(|f| (f[0] as usize, f[1] as usize))
+            .collect();
+        let by_triplets = |nf: usize, pairs: &[(usize, usize)]| {
+            let mut b = SparseBuilder::new(nf);
+            for i in 0..nf {
+                b.add(i, i, 0.0);
+            }
+            for &(i, j) in pairs {
+                b.add_sym(i, j, 0.0);
+            }
+            b.build().unwrap().entries()
+        };
+        let nf = mesh.n_faces();
+        let direct = dual_pattern(nf, pairs.iter().copied()).unwrap();
+        assert_eq!(direct.entries(), by_triplets(nf, &pairs));
+        assert_eq!(direct.nnz(), nf + 2 * pairs.len());
+        let pillow = [(0, 1), (1, 0), (1, 2)];
+        assert_eq!(
+            dual_pattern(3, pillow.iter().copied()).unwrap().entries(),
+            by_triplets(3, &pillow)
+        );
+        assert!(dual_pattern(3, [(0, 3)].into_iter()).is_err());
+        assert!(dual_pattern(3, [(1, 1)].into_iter()).is_err());
+    }
 }

@@ -275,6 +275,44 @@ impl<T: Scalar> SparseMatrix<T> {
             values,
         })
     }
+    /// A matrix from compressed columns built elsewhere (e.g. straight from a mesh's adjacency,
+    /// without sorting triplets): `row_idx[col_ptr[j]..col_ptr[j + 1]]` are column j's rows,
+    /// strictly increasing and below n. Checked, O(nnz).
+    pub fn from_columns(
+        n: usize,
+        col_ptr: Vec<usize>,
+        row_idx: Vec<usize>,
+        values: Vec<T>,
+    ) -> Result<SparseMatrix<T>, SolverError> {
+        let bad = |what: String| Err(SolverError::Build(format!("compressed columns: {what}")));
+        if col_ptr.len() != n + 1 || col_ptr[0] != 0 || col_ptr[n] != row_idx.len() {
+            return bad(format!("{} column pointers for n = {n}", col_ptr.len()));
+        }
+        if values.len() != row_idx.len() {
+            return bad(format!(
+                "{} values for {} rows",
+                values.len(),
+                row_idx.len()
+            ));
+        }
+        for j in 0..n {
+            if col_ptr[j] > col_ptr[j + 1] {
+                return bad(format!("column {j} ends before it starts"));
+            }
+            let rows = &row_idx[col_ptr[j]..col_ptr[j + 1]];
+            if rows.windows(2).any(|w| w[0] >= w[1]) || rows.last().is_some_and(|&i| i >= n) {
+                return bad(format!(
+                    "column {j}'s rows are not increasing and below {n}"
+                ));
+            }
+        }
+        Ok(SparseMatrix {
+            n,
+            col_ptr,
+            row_idx,
+            values,
+        })
+    }
     fn same_pattern(&self, analysis: &Analysis) -> bool {
         analysis.pattern.0 == self.col_ptr && analysis.pattern.1 == self.row_idx
     }
@@ -533,6 +571,22 @@ pub fn solve_constrained(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn compressed_columns_are_checked() {
+        let ok = SparseMatrix::from_columns(2, vec![0, 2, 3], vec![0, 1, 1], vec![2.0, -1.0, 2.0]);
+        assert_eq!(ok.unwrap().nnz(), 3);
+        for (ptr, rows) in [
+            (vec![0, 2, 3], vec![1, 0, 1]), // rows not increasing
+            (vec![0, 2, 3], vec![0, 2, 1]), // row out of range
+            (vec![0, 2], vec![0, 1]),       // too few column pointers
+            (vec![0, 2, 2], vec![0, 1, 1]), // pointers do not cover the rows
+        ] {
+            let n = rows.len();
+            assert!(SparseMatrix::from_columns(2, ptr, rows, vec![1.0; n]).is_err());
+        }
+        assert!(SparseMatrix::from_columns(2, vec![0, 1, 2], vec![0, 1], vec![1.0]).is_err());
+    }
 
     /// 1-D Laplacian with Dirichlet ends: the solution is linear.
     #[test]
