@@ -482,6 +482,9 @@ impl<T: Scalar> Multigrid<T> {
                 .sum()
         };
         let b_norm = dot(b, b).sqrt();
+        if !b_norm.is_finite() || guess.is_some_and(|g| !g.iter().all(|v| v.finite())) {
+            return Err(SolverError::NonFinite);
+        }
         let mut x = guess.map_or_else(|| vec![T::ZERO; n], |g| g.to_vec());
         let mut q = vec![T::ZERO; n];
         a.apply(&x, &mut q);
@@ -679,6 +682,16 @@ mod tests {
         let capped = mg.solve(&rhs, None, 1e-14, 2).unwrap();
         assert_eq!(capped.iterations, 2);
         assert!(capped.relative_residual > 1e-14);
+        let mut bad = rhs.clone();
+        bad[7] = c64::new(f64::NAN, 0.0);
+        assert_eq!(
+            mg.solve(&bad, None, 1e-3, 100).unwrap_err(),
+            SolverError::NonFinite
+        );
+        assert_eq!(
+            mg.solve(&rhs, Some(&bad), 1e-3, 100).unwrap_err(),
+            SolverError::NonFinite
+        );
     }
 
     #[test]
@@ -694,6 +707,13 @@ mod tests {
             mg.solve(&rhs[1..], None, 1e-3, 100),
             Err(SolverError::DimensionMismatch { .. })
         ));
+        // Non-finite input is an error, not a silent NaN solution.
+        let mut bad = rhs.clone();
+        bad[3] = f64::NAN;
+        assert_eq!(
+            mg.solve(&bad, None, 1e-3, 100).unwrap_err(),
+            SolverError::NonFinite
+        );
         // A matrix that is not positive definite is reported, not iterated on.
         let mut b = SparseBuilder::<f64>::new(3);
         b.add(0, 0, -1.0);
