@@ -144,20 +144,10 @@ pub(crate) fn all_fan_sums(
         .filter_map(|e| {
             let (h0, h1) = mesh.edge_halfedges(e);
             let h1 = h1?;
-            let (a, b) = (tr.faces[e][0] as usize, tr.faces[e][1] as usize);
-            let (kappa, r) = (tr.kappa[e], turns(e));
-            Some([
-                (
-                    mesh.to(h0) as u32,
-                    wrap_pi(theta[b] - theta[a] - kappa - step * r as f64),
-                    r,
-                ),
-                (
-                    mesh.to(h1) as u32,
-                    wrap_pi(theta[a] - theta[b] - -kappa - step * -r as f64),
-                    -r,
-                ),
-            ])
+            let r = turns(e);
+            let (d0, r0) = crossing(tr, theta, step, e, true, r);
+            let (d1, r1) = crossing(tr, theta, step, e, false, r);
+            Some([(mesh.to(h0) as u32, d0, r0), (mesh.to(h1) as u32, d1, r1)])
         })
         .collect();
     let nv = mesh.n_vertices();
@@ -197,19 +187,36 @@ pub(crate) fn fan_turning(
     let crossings = if boundary { hs.len() - 1 } else { hs.len() };
     for &h in hs.iter().take(crossings) {
         // Crossing from face(h) to the next face counter-clockwise, over the edge of prev(h).
-        let g = mesh.prev(h);
-        let e = mesh.edge(g);
-        let (a, b) = (tr.faces[e][0] as usize, tr.faces[e][1] as usize);
-        let from = mesh.face_of(h);
-        let (to, kappa, r) = if a == from {
-            (b, tr.kappa[e], turns(e))
-        } else {
-            (a, -tr.kappa[e], -turns(e))
-        };
-        sum_d += wrap_pi(theta[to] - theta[from] - kappa - step * r as f64);
+        let e = mesh.edge(mesh.prev(h));
+        let forward = tr.faces[e][0] as usize == mesh.face_of(h);
+        let (d, r) = crossing(tr, theta, step, e, forward, turns(e));
+        sum_d += d;
         sum_r += r;
     }
     Some((sum_d, sum_r, boundary))
+}
+
+/// Crossing interior edge e from its first face to its second (`forward`) or back, with the
+/// edge's matching `turn` (first to second): the residual angle d (wrapped to (−π, π]) and the
+/// matching in the direction of the crossing.
+fn crossing(
+    tr: &EdgeTransport,
+    theta: &[f64],
+    step: f64,
+    e: usize,
+    forward: bool,
+    turn: i64,
+) -> (f64, i64) {
+    let (a, b) = (tr.faces[e][0] as usize, tr.faces[e][1] as usize);
+    let (from, to, kappa, r) = if forward {
+        (a, b, tr.kappa[e], turn)
+    } else {
+        (b, a, -tr.kappa[e], -turn)
+    };
+    (
+        wrap_pi(theta[to] - theta[from] - kappa - step * r as f64),
+        r,
+    )
 }
 
 /// The full index numerator k (index k/N) of an interior vertex; `None` on the boundary.

@@ -367,6 +367,7 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
     // be free to round the pair back.
     let mut w = w;
     let mut pinned = vec![false; r.len()];
+    let mut released_any = false;
     if let Some(adjust) = inp.adjust_turns
         && let Some((adjusted, released)) = adjust(&relaxed, &r)
     {
@@ -375,14 +376,20 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
         }
         r = adjusted;
         for f in released {
+            released_any |= w[f] != 0.0;
             w[f] = 0.0;
         }
     }
     lap("smoothing: cancellation".into(), &mut timings);
 
     // Fixed-matching system: dual Laplacian + diag(τω) + anchors. Only the right-hand side
-    // depends on the matchings, so one factorization serves all passes.
-    let is_anchor = anchor_faces(&w, inp.omega, &start, &adj);
+    // depends on the matchings, so one factorization serves all passes. Its anchors are the
+    // relaxed system's unless that one used the gauge weights (τ = 0) or weights were released.
+    let is_anchor = if tau > 0.0 && !released_any {
+        anchor_relaxed
+    } else {
+        anchor_faces(&w, inp.omega, &start, &adj)
+    };
     let fixed_matrix = layout.fill(
         |i| w[i] + if is_anchor[i] { 1.0 } else { 0.0 },
         |_| (-1.0, -1.0),
