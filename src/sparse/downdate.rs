@@ -1,0 +1,416 @@
+//! Solving after a few diagonal entries of a factored matrix were lowered, without refactoring
+//! it: A = A₀ − E D Eᵀ, with E the unit columns of the changed rows and D > 0 the decreases.
+//!
+//! By the Woodbury identity, with A₀ = Pᵀ L Lᵀ P and Y = L⁻¹ P E,
+//!
+//!   A⁻¹ b = Pᵀ L⁻ᵀ (z + Y K⁻¹ Yᵀ z),   z = L⁻¹ P b,   K = D⁻¹ − Yᵀ Y,
+//!
+//! so once Y and K's Cholesky factor are known, a solve costs one forward and one backward
+//! substitution plus a few small products, like a solve with A₀. K is positive definite exactly
+//! when A is (it is the Schur complement of A₀'s block in [[A₀, E], [Eᵀ, D⁻¹]], and A is the
+//! other one).
+//!
+//! Y is cheap because its columns are sparse: L⁻¹ e_p is nonzero only on the elimination-tree
+//! path from p to the root. The columns are computed together, supernode by supernode up the
+//! tree: at each supernode, one dense triangular solve and one product for all the columns whose
+//! path passes through it.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
+use faer::linalg::cholesky::llt::solve::solve_in_place;
+use faer::linalg::matmul::matmul;
+use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
+use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
+use faer::sparse::linalg::cholesky::supernodal::{SupernodalLltRef, SymbolicSupernodalCholesky};
+use faer::{Accum, Conj, Mat, Par};
+
+use super::{SolverError, SpdSolver, clear_upper_vector_state};
+
+/// A factored matrix A₀ with some diagonal entries lowered: solves with A₀ − E D Eᵀ.
+pub struct DiagonalDowndate<'a> {
+    solver: &'a SpdSolver<f64>,
+    symbolic: &'a SymbolicSupernodalCholesky<usize>,
+    /// Y = L⁻¹ P E by supernode, ancestors after descendants.
+    blocks: Vec<PathBlock>,
+    /// The Cholesky factor (lower triangle) of K = D⁻¹ − Yᵀ Y.
+    capacitance: Mat<f64>,
+    /// How many diagonal entries were lowered.
+    rank: usize,
+}
+
+/// The rows of Y in one supernode: its columns `start..start + values.nrows()`, for the columns
+/// of Y (`active`, ascending) whose path passes through it.
+struct PathBlock {
+    start: usize,
+    active: Vec<usize>,
+    values: Mat<f64>,
+}
+
+impl SpdSolver<f64> {
+    /// Solves with this matrix minus `decrease[j]` on the diagonal at `rows[j]`, reusing the
+    /// factor (see the module documentation). An error when the factor is not supernodal (small
+    /// matrices: refactoring them is cheap), when the rows are out of range or repeated, when a
+    /// decrease is not positive and finite, or when the lowered matrix is not positive definite.
+    pub fn downdated(
+        &self,
+        rows: &[usize],
+        decrease: &[f64],
+    ) -> Result<DiagonalDowndate<'_>, SolverError> {
+        let n = self.n();
+        let build = |m: String| Err(SolverError::Build(m));
+        if rows.len() != decrease.len() {
+            return build(format!(
+                "{} rows but {} decreases",
+                rows.len(),
+                decrease.len()
+            ));
+        }
+        if let Some(d) = decrease.iter().find(|d| !(d.is_finite() && **d > 0.0)) {
+            return build(format!(
+                "a diagonal decrease must be positive and finite, not {d}"
+            ));
+        }
+        let mut seen = vec![false; n];
+        for &r in rows {
+            if r >= n || std::mem::replace(&mut seen[r], true) {
+                return build(format!("row {r} is out of range or repeated"));
+            }
+        }
+        let symbolic = self.analysis.symbolic.as_ref();
+        let SymbolicCholeskyRaw::Supernodal(sym) = symbolic.raw() else {
+            return build("the factor is simplicial; refactor instead".into());
+        };
+        if self.l_values.len() != sym.len_val() {
+            return Err(SolverError::NotPositiveDefinite(
+                "the last refactorization failed; there is no factor to downdate".into(),
+            ));
+        }
+        let permuted: Vec<usize> = match symbolic.perm() {
+            Some(p) => rows.iter().map(|&r| p.arrays().1[r]).collect(),
+            None => rows.to_vec(),
+        };
+        let factor = SupernodalLltRef::new(sym, &self.l_values);
+        let blocks = path_blocks(sym, factor, &permuted)?;
+
+        // K = D⁻¹ − Σ over supernodes of (block)ᵀ(block), scattered to the active columns.
+        let k = rows.len();
+        let mut capacitance =
+            Mat::<f64>::from_fn(k, k, |i, j| if i == j { 1.0 / decrease[i] } else { 0.0 });
+        for b in &blocks {
+            let m = b.active.len();
+            let mut gram = Mat::<f64>::zeros(m, m);
+            matmul(
+                gram.as_mut(),
+                Accum::Replace,
+                b.values.transpose(),
+                b.values.as_ref(),
+                1.0,
+                Par::Seq,
+            );
+            for (a, &ja) in b.active.iter().enumerate() {
+                for (c, &jc) in b.active.iter().enumerate() {
+                    capacitance[(ja, jc)] -= gram[(a, c)];
+                }
+            }
+        }
+        // Sequential, like everything here: faer's default would run this on the rayon workers
+        // and leave their vector registers dirty (see `clear_upper_vector_state`).
+        let req = cholesky_in_place_scratch::<f64>(k, Par::Seq, Default::default());
+        let mut mem = MemBuffer::try_new(req).map_err(|_| SolverError::OutOfMemory)?;
+        let factored = cholesky_in_place(
+            capacitance.as_mut(),
+            Default::default(),
+            Par::Seq,
+            MemStack::new(&mut mem),
+            Default::default(),
+        );
+        clear_upper_vector_state();
+        factored.map_err(|_| {
+            SolverError::NotPositiveDefinite(
+                "the matrix with the lowered diagonal is not positive definite".into(),
+            )
+        })?;
+        Ok(DiagonalDowndate {
+            solver: self,
+            symbolic: sym,
+            blocks,
+            capacitance,
+            rank: k,
+        })
+    }
+}
+
+/// Y = L⁻¹ P E (E: the unit columns at the permuted rows `p`), by supernode along the paths.
+fn path_blocks(
+    sym: &SymbolicSupernodalCholesky<usize>,
+    factor: SupernodalLltRef<'_, usize, f64>,
+    p: &[usize],
+) -> Result<Vec<PathBlock>, SolverError> {
+    let ns = sym.n_supernodes();
+    let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
+    let mut supernode_of = vec![0u32; sym.nrows()];
+    for s in 0..ns {
+        supernode_of[begin[s]..end[s]].fill(s as u32);
+    }
+    // Parent of a supernode: the one holding its first off-diagonal row.
+    let parent = |s: usize| {
+        sym.supernode(s)
+            .pattern()
+            .first()
+            .map(|&r| supernode_of[r] as usize)
+    };
+    // Which columns of Y pass through each supernode (ascending, as the columns are visited in
+    // order); `slot[s]` is the supernode's index in `blocks`.
+    let mut active: Vec<Vec<usize>> = vec![Vec::new(); ns];
+    for (j, &pj) in p.iter().enumerate() {
+        let mut s = Some(supernode_of[pj] as usize);
+        while let Some(t) = s {
+            active[t].push(j);
+            s = parent(t);
+        }
+    }
+    let mut slot = vec![usize::MAX; ns];
+    let mut blocks = Vec::new();
+    for s in 0..ns {
+        if !active[s].is_empty() {
+            slot[s] = blocks.len();
+            let m = active[s].len();
+            blocks.push(PathBlock {
+                start: begin[s],
+                active: std::mem::take(&mut active[s]),
+                values: Mat::zeros(end[s] - begin[s], m),
+            });
+        }
+    }
+    for (j, &pj) in p.iter().enumerate() {
+        let b = &mut blocks[slot[supernode_of[pj] as usize]];
+        let c = b.active.binary_search(&j).map_err(|_| path_error())?;
+        b.values[(pj - b.start, c)] = 1.0;
+    }
+    // Forward substitution, supernodes in ascending order (descendants first).
+    let mut position = Vec::new();
+    for s in 0..ns {
+        let i = slot[s];
+        if i == usize::MAX {
+            continue;
+        }
+        let node = factor.supernode(s);
+        let size = end[s] - begin[s];
+        let (top, bottom) = node.val().split_at_row(size);
+        let (done, later) = blocks.split_at_mut(i + 1);
+        let block = &mut done[i];
+        solve_lower_triangular_in_place(top, block.values.as_mut(), Par::Seq);
+        let pattern = node.pattern();
+        if pattern.is_empty() {
+            continue;
+        }
+        let mut update = Mat::<f64>::zeros(pattern.len(), block.active.len());
+        matmul(
+            update.as_mut(),
+            Accum::Replace,
+            bottom,
+            block.values.as_ref(),
+            1.0,
+            Par::Seq,
+        );
+        // Scatter into the ancestors, one run of rows per ancestor supernode.
+        let mut r = 0;
+        while r < pattern.len() {
+            let t = supernode_of[pattern[r]] as usize;
+            let run = pattern[r..]
+                .iter()
+                .take_while(|&&row| supernode_of[row] as usize == t)
+                .count();
+            if slot[t] <= i {
+                return Err(path_error());
+            }
+            let target = &mut later[slot[t] - i - 1];
+            // Where each of this block's columns sits in the ancestor's (a subset, both sorted).
+            position.clear();
+            let mut c = 0;
+            for &j in &block.active {
+                while c < target.active.len() && target.active[c] < j {
+                    c += 1;
+                }
+                if c == target.active.len() || target.active[c] != j {
+                    return Err(path_error());
+                }
+                position.push(c);
+            }
+            for (a, &c) in position.iter().enumerate() {
+                for q in r..r + run {
+                    target.values[(pattern[q] - target.start, c)] -= update[(q, a)];
+                }
+            }
+            r += run;
+        }
+    }
+    Ok(blocks)
+}
+
+fn path_error() -> SolverError {
+    SolverError::Build("the factor's rows are not on its elimination-tree paths".into())
+}
+
+impl DiagonalDowndate<'_> {
+    /// Solves (A₀ − E D Eᵀ) x = rhs.
+    pub fn solve(&self, rhs: &[f64]) -> Result<Vec<f64>, SolverError> {
+        let n = self.solver.n();
+        if rhs.len() != n {
+            return Err(SolverError::DimensionMismatch {
+                expected: n,
+                found: rhs.len(),
+            });
+        }
+        let symbolic = self.solver.analysis.symbolic.as_ref();
+        let perm = symbolic.perm();
+        let mut z = match perm {
+            Some(p) => Mat::<f64>::from_fn(n, 1, |i, _| rhs[p.arrays().0[i]]),
+            None => Mat::<f64>::from_fn(n, 1, |i, _| rhs[i]),
+        };
+        let factor = SupernodalLltRef::new(self.symbolic, &self.solver.l_values);
+        let req = self.symbolic.solve_in_place_scratch::<f64>(1, Par::Seq);
+        let mut mem = MemBuffer::try_new(req).map_err(|_| SolverError::OutOfMemory)?;
+        factor.l_solve_with_conj(Conj::No, z.as_mut(), Par::Seq, MemStack::new(&mut mem));
+        // s = K⁻¹ Yᵀ z, then z += Y s.
+        let mut s = Mat::<f64>::zeros(self.rank, 1);
+        for b in &self.blocks {
+            for (a, &j) in b.active.iter().enumerate() {
+                let column = b.values.col(a);
+                s[(j, 0)] += (0..b.values.nrows())
+                    .map(|r| column[r] * z[(b.start + r, 0)])
+                    .sum::<f64>();
+            }
+        }
+        solve_in_place(
+            self.capacitance.as_ref(),
+            s.as_mut(),
+            Par::Seq,
+            MemStack::new(&mut []),
+        );
+        for b in &self.blocks {
+            for (a, &j) in b.active.iter().enumerate() {
+                let column = b.values.col(a);
+                for r in 0..b.values.nrows() {
+                    z[(b.start + r, 0)] += column[r] * s[(j, 0)];
+                }
+            }
+        }
+        factor.l_transpose_solve_with_conj(Conj::No, z.as_mut(), Par::Seq, MemStack::new(&mut mem));
+        clear_upper_vector_state();
+        let x: Vec<f64> = match perm {
+            Some(p) => (0..n).map(|i| z[(p.arrays().1[i], 0)]).collect(),
+            None => (0..n).map(|i| z[(i, 0)]).collect(),
+        };
+        if x.iter().all(|v| v.is_finite()) {
+            Ok(x)
+        } else {
+            Err(SolverError::NonFinite)
+        }
+    }
+
+    /// How many diagonal entries were lowered.
+    pub fn rank(&self) -> usize {
+        self.rank
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::SparseBuilder;
+    use super::*;
+
+    /// Grid graph Laplacian (side × side) plus `weight(i)` on the diagonal.
+    fn grid(side: usize, weight: impl Fn(usize) -> f64) -> super::super::SparseMatrix {
+        let n = side * side;
+        let mut b = SparseBuilder::new(n);
+        for i in 0..n {
+            b.add(i, i, weight(i));
+            let (x, y) = (i % side, i / side);
+            for (nx, ny) in [(x + 1, y), (x, y + 1)] {
+                if nx < side && ny < side {
+                    let j = ny * side + nx;
+                    b.add_sym(i, j, -1.0);
+                    b.add(i, i, 1.0);
+                    b.add(j, j, 1.0);
+                }
+            }
+        }
+        b.build().unwrap()
+    }
+
+    /// Weights like the field's: large on a scattered tenth of the rows (τω up to 10⁴), zero
+    /// elsewhere.
+    fn weight(i: usize) -> f64 {
+        if i % 10 == 3 {
+            1e4 * (1.0 + (i as f64).sin().abs())
+        } else {
+            0.0
+        }
+    }
+
+    #[test]
+    fn downdated_solves_match_a_fresh_factorization() {
+        let side = 200;
+        let a0 = grid(side, weight);
+        let solver = SpdSolver::new(&a0).unwrap();
+        // Release a cluster of weighted rows and some scattered ones, as cancelled paths do.
+        let rows: Vec<usize> = (0..side * side)
+            .filter(|&i| weight(i) > 0.0 && ((i / side).abs_diff(60) < 4 || i % 997 == 3))
+            .collect();
+        assert!(rows.len() > 40, "{} rows", rows.len());
+        let decrease: Vec<f64> = rows.iter().map(|&i| weight(i)).collect();
+        let released = grid(side, |i| if rows.contains(&i) { 0.0 } else { weight(i) });
+        let fresh = SpdSolver::new(&released).unwrap();
+        let down = solver.downdated(&rows, &decrease).unwrap();
+        assert_eq!(down.rank(), rows.len());
+        for seed in 0..3 {
+            let rhs: Vec<f64> = (0..side * side)
+                .map(|i| ((i * 7 + seed * 13) as f64).sin() * (1.0 + weight(i)))
+                .collect();
+            let (x, y) = (down.solve(&rhs).unwrap(), fresh.solve(&rhs).unwrap());
+            let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let err = x
+                .iter()
+                .zip(&y)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            assert!(err <= 1e-9 * scale, "max error {err:e} against {scale:e}");
+            // The solution is of the released system, not of the original one.
+            let z = solver.solve(&rhs).unwrap();
+            let moved = z
+                .iter()
+                .zip(&y)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            assert!(
+                moved > 1e3 * err.max(1e-12),
+                "release changed nothing ({moved:e})"
+            );
+        }
+    }
+
+    #[test]
+    fn lowering_too_far_or_bad_arguments_are_errors() {
+        let side = 200;
+        let solver = SpdSolver::new(&grid(side, weight)).unwrap();
+        // Twice the weight on every weighted row: the matrix becomes indefinite.
+        let rows: Vec<usize> = (0..side * side).filter(|&i| weight(i) > 0.0).collect();
+        let twice: Vec<f64> = rows.iter().map(|&i| 2.0 * weight(i)).collect();
+        assert!(matches!(
+            solver.downdated(&rows, &twice).err(),
+            Some(SolverError::NotPositiveDefinite(_))
+        ));
+        assert!(solver.downdated(&[3, 3], &[1.0, 1.0]).is_err());
+        assert!(solver.downdated(&[side * side], &[1.0]).is_err());
+        assert!(solver.downdated(&[3], &[0.0]).is_err());
+        assert!(solver.downdated(&[3], &[f64::NAN]).is_err());
+        assert!(solver.downdated(&[3, 13], &[1.0]).is_err());
+        let down = solver.downdated(&[3], &[1.0]).unwrap();
+        assert!(matches!(
+            down.solve(&[1.0]).err(),
+            Some(SolverError::DimensionMismatch { .. })
+        ));
+        // A small factor is simplicial: the caller refactors instead.
+        let small = SpdSolver::new(&grid(4, |_| 1.0)).unwrap();
+        assert!(small.downdated(&[0], &[0.5]).is_err());
+    }
+}
