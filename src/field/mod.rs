@@ -276,16 +276,18 @@ pub fn compute_field_then<T: Send>(
             return Err(FieldError::InvalidParameter(format!("{name} = {v}")));
         }
     }
-    // The smoothing systems' analysis (AMD ordering, the longest sequential step) depends on the
-    // mesh only: it runs on a thread of its own from the start, beside everything up to the
-    // assembly of the systems.
+    // The smoothing systems' analysis (fill-reducing ordering and symbolic factorization, by
+    // nested dissection of the face centroids on large meshes) depends on the mesh only: it runs
+    // on a thread of its own from the start, beside the bases and the curvature.
     std::thread::scope(|scope| {
         let pending = std::sync::Mutex::new(Some(scope.spawn(|| {
             let pairs = (0..mesh.n_edges()).filter_map(|e| match mesh.edge_halfedges(e) {
                 (h0, Some(h1)) => Some((mesh.face_of(h0), mesh.face_of(h1))),
                 _ => None,
             });
-            smoothing::dual_pattern(mesh.n_faces(), pairs).and_then(|m| Analysis::new(&m))
+            let centroids: Vec<_> = (0..mesh.n_faces()).map(|f| mesh.face_centroid(f)).collect();
+            smoothing::dual_pattern(mesh.n_faces(), pairs)
+                .and_then(|m| Analysis::geometric(&m, &centroids))
         })));
         let done = std::sync::OnceLock::new();
         let analysis = || -> Result<Analysis, SolverError> {

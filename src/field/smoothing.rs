@@ -27,11 +27,13 @@
 
 use std::f64::consts::TAU;
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::transport::{EdgeTransport, NO_FACE};
 use crate::sparse::{
-    Analysis, Multigrid, Scalar, SolverError, SparseBuilder, SparseMatrix, SpdSolver, c64,
+    Analysis, DiagonalDowndate, Multigrid, Scalar, SolverError, SparseBuilder, SparseMatrix,
+    SpdSolver, c64,
 };
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -74,7 +76,7 @@ pub struct SmoothInput<'a> {
     pub adjust_turns: Option<&'a AdjustTurns<'a>>,
     /// Where the analysis of [`dual_pattern`] comes from if it is computed elsewhere
     /// (it depends on the mesh only, so callers compute it while other work runs); asked for
-    /// only once the relaxed solve is done and the fixed-matching system assembled.
+    /// by the thread that factors the fixed-matching system beside the relaxed solve.
     pub analysis: Option<&'a AnalysisSource<'a>>,
 }
 
@@ -87,51 +89,103 @@ pub fn dual_pattern(
     pairs: impl Iterator<Item = (usize, usize)>,
 ) -> Result<SparseMatrix, SolverError> {
     let pairs: Vec<(usize, usize)> = pairs.collect();
+    Ok(dual_columns(nf, &pairs)?.0)
+}
+
+/// Where a value of a dual system comes from: the diagonal of a column, or one side of an edge's
+/// pair of entries (see [`DualLayout::fill`]).
+#[derive(Clone, Copy)]
+enum Source {
+    Diagonal {
+        column: u32,
+        degree: u32,
+    },
+    /// (j, i): the edge's first entry; (i, j): its second.
+    Edge {
+        edge: u32,
+        second: bool,
+    },
+}
+
+/// [`dual_pattern`] and, when every pair of faces is adjacent once, where each of its entries
+/// comes from (the index in `pairs` for the edges).
+fn dual_columns(
+    nf: usize,
+    pairs: &[(usize, usize)],
+) -> Result<(SparseMatrix, Option<Vec<Source>>), SolverError> {
     if let Some(&(i, j)) = pairs.iter().find(|&&(i, j)| i >= nf || j >= nf || i == j) {
         return Err(SolverError::Build(format!(
             "dual pair ({i}, {j}) is not two distinct faces of {nf}"
         )));
     }
+    if nf >= 1 << 31 || pairs.len() >= 1 << 31 {
+        return Err(SolverError::Build(format!("{nf} faces are too many")));
+    }
     // Counted straight into compressed columns (column f: f and its neighbours, at most four
     // entries, sorted in place): sorting five million triplets took 0.2 s at a million faces.
     let mut col_ptr = vec![0usize; nf + 1];
-    for &(i, j) in &pairs {
+    for &(i, j) in pairs {
         col_ptr[i + 1] += 1;
         col_ptr[j + 1] += 1;
     }
     for f in 0..nf {
         col_ptr[f + 1] += col_ptr[f] + 1;
     }
-    let mut row_idx = vec![0usize; col_ptr[nf]];
+    let mut entries = vec![
+        (
+            0usize,
+            Source::Edge {
+                edge: 0,
+                second: false
+            }
+        );
+        col_ptr[nf]
+    ];
     let mut fill: Vec<usize> = col_ptr[..nf].to_vec();
     for f in 0..nf {
-        row_idx[fill[f]] = f;
+        let degree = (col_ptr[f + 1] - col_ptr[f] - 1) as u32;
+        entries[fill[f]] = (
+            f,
+            Source::Diagonal {
+                column: f as u32,
+                degree,
+            },
+        );
         fill[f] += 1;
     }
-    for &(i, j) in &pairs {
-        row_idx[fill[i]] = j;
+    for (k, &(i, j)) in pairs.iter().enumerate() {
+        let edge = k as u32;
+        entries[fill[i]] = (
+            j,
+            Source::Edge {
+                edge,
+                second: false,
+            },
+        );
         fill[i] += 1;
-        row_idx[fill[j]] = i;
+        entries[fill[j]] = (i, Source::Edge { edge, second: true });
         fill[j] += 1;
     }
     let mut repeated = false;
     for f in 0..nf {
-        let rows = &mut row_idx[col_ptr[f]..col_ptr[f + 1]];
-        rows.sort_unstable();
-        repeated |= rows.windows(2).any(|w| w[0] == w[1]);
+        let column = &mut entries[col_ptr[f]..col_ptr[f + 1]];
+        column.sort_unstable_by_key(|&(row, _)| row);
+        repeated |= column.windows(2).any(|w| w[0].0 == w[1].0);
     }
     if repeated {
         // Two faces sharing two edges (a two-triangle pillow): one entry for both.
-        let mut b = SparseBuilder::with_capacity(nf, row_idx.len());
+        let mut b = SparseBuilder::with_capacity(nf, entries.len());
         for f in 0..nf {
-            for &g in &row_idx[col_ptr[f]..col_ptr[f + 1]] {
+            for &(g, _) in &entries[col_ptr[f]..col_ptr[f + 1]] {
                 b.add(g, f, 0.0);
             }
         }
-        return b.build();
+        return Ok((b.build()?, None));
     }
+    let (row_idx, sources): (Vec<usize>, Vec<Source>) = entries.into_iter().unzip();
     let values = vec![0.0; row_idx.len()];
-    SparseMatrix::from_columns(nf, col_ptr, row_idx, values)
+    let pattern = SparseMatrix::from_columns(nf, col_ptr, row_idx, values)?;
+    Ok((pattern, Some(sources)))
 }
 
 /// See [`SmoothInput::analysis`].
@@ -209,71 +263,91 @@ pub(crate) fn nearest_turns(tr: &EdgeTransport, theta: &[f64], step: f64) -> Vec
 /// is observed, not guaranteed.
 const GAUGE_WEIGHT: f64 = 1e-2;
 
-/// Per face whether it anchors its dual component: one face (the most reliable) in each
-/// component that has no positive weight, so that the systems are definite.
-fn anchor_faces(w: &[f64], omega: &[f64], start: &[usize], adj: &[(u32, u32)]) -> Vec<bool> {
-    let nf = w.len();
-    let mut comp = vec![false; nf];
-    let mut is_anchor = vec![false; nf];
-    let mut stack = Vec::new();
-    for root in 0..nf {
-        if comp[root] {
-            continue;
-        }
-        comp[root] = true;
-        stack.push(root);
-        let (mut best, mut best_w, mut has_w) = (root, -1.0, false);
-        while let Some(f) = stack.pop() {
-            has_w |= w[f] > 0.0;
-            if omega[f] > best_w {
-                best_w = omega[f];
-                best = f;
-            }
-            for &(g, _) in &adj[start[f]..start[f + 1]] {
-                if !comp[g as usize] {
-                    comp[g as usize] = true;
-                    stack.push(g as usize);
-                }
-            }
-        }
-        if !has_w {
-            is_anchor[best] = true;
-        }
-    }
-    is_anchor
+/// The connected components of the dual graph, each with its most reliable face: the systems
+/// need one anchor in every component without a positive weight to be definite, and which
+/// components those are changes with the weights (τ = 0, released faces) while the components
+/// do not.
+struct DualComponents {
+    label: Vec<u32>,
+    /// Per component, the face with the largest ω (the first such).
+    best: Vec<usize>,
 }
 
-/// Where each entry of the dual systems sits in their shared value array, so that a system is
-/// written in place instead of sorting five million entries again (0.3 s a system at 1.1 M
-/// faces).
+impl DualComponents {
+    fn new(omega: &[f64], start: &[usize], adj: &[(u32, u32)]) -> DualComponents {
+        let nf = omega.len();
+        let mut label = vec![u32::MAX; nf];
+        let mut best = Vec::new();
+        let mut stack = Vec::new();
+        for root in 0..nf {
+            if label[root] != u32::MAX {
+                continue;
+            }
+            let c = best.len() as u32;
+            label[root] = c;
+            stack.push(root);
+            let (mut top, mut top_w) = (root, -1.0);
+            while let Some(f) = stack.pop() {
+                if omega[f] > top_w {
+                    (top, top_w) = (f, omega[f]);
+                }
+                for &(g, _) in &adj[start[f]..start[f + 1]] {
+                    if label[g as usize] == u32::MAX {
+                        label[g as usize] = c;
+                        stack.push(g as usize);
+                    }
+                }
+            }
+            best.push(top);
+        }
+        DualComponents { label, best }
+    }
+
+    /// Per face whether it anchors its component: the most reliable face of each component with
+    /// no positive weight in `w`.
+    fn anchors(&self, w: &[f64]) -> Vec<bool> {
+        let mut weighted = vec![false; self.best.len()];
+        for (f, &wf) in w.iter().enumerate() {
+            if wf > 0.0 {
+                weighted[self.label[f] as usize] = true;
+            }
+        }
+        let mut is_anchor = vec![false; w.len()];
+        for (c, &f) in self.best.iter().enumerate() {
+            if !weighted[c] {
+                is_anchor[f] = true;
+            }
+        }
+        is_anchor
+    }
+}
+
+/// Where each entry of the dual systems comes from, so that a system is written in place, in
+/// parallel, instead of being assembled from triplets again (0.3 s a system at 1.1 M faces).
 struct DualLayout {
     pattern: SparseMatrix,
-    diag: Vec<usize>,
-    /// Per interior edge: (edge, face i = faces[0], face j, position of (j, i), of (i, j)).
-    pairs: Vec<(usize, usize, usize, usize, usize)>,
+    /// The interior edges and their faces (i = faces[0], j = faces[1]).
+    edges: Vec<usize>,
+    pairs: Vec<(usize, usize)>,
+    /// Per entry; `None` when two faces share two edges (then entries are summed by position).
+    sources: Option<Vec<Source>>,
 }
 
 impl DualLayout {
     fn new(tr: &EdgeTransport, nf: usize) -> Result<DualLayout, SolverError> {
-        let pairs = tr.faces.iter().filter(|f| f[1] != NO_FACE);
-        let pattern = dual_pattern(nf, pairs.map(|f| (f[0] as usize, f[1] as usize)))?;
-        let missing = || SolverError::Build("dual system entry missing from its pattern".into());
-        let diag = (0..nf)
-            .map(|i| pattern.position(i, i).ok_or_else(missing))
-            .collect::<Result<_, _>>()?;
-        let mut pairs = Vec::with_capacity(tr.faces.len());
-        for (e, f) in tr.faces.iter().enumerate() {
-            if f[1] != NO_FACE {
-                let (i, j) = (f[0] as usize, f[1] as usize);
-                let ji = pattern.position(j, i).ok_or_else(missing)?;
-                let ij = pattern.position(i, j).ok_or_else(missing)?;
-                pairs.push((e, i, j, ji, ij));
-            }
-        }
+        let edges: Vec<usize> = (0..tr.faces.len())
+            .filter(|&e| tr.faces[e][1] != NO_FACE)
+            .collect();
+        let pairs: Vec<(usize, usize)> = edges
+            .iter()
+            .map(|&e| (tr.faces[e][0] as usize, tr.faces[e][1] as usize))
+            .collect();
+        let (pattern, sources) = dual_columns(nf, &pairs)?;
         Ok(DualLayout {
             pattern,
-            diag,
+            edges,
             pairs,
+            sources,
         })
     }
 
@@ -282,32 +356,76 @@ impl DualLayout {
     /// relaxed one.
     fn fill<T: Scalar>(
         &self,
+        d: impl Fn(usize) -> T + Sync,
+        off: impl Fn(usize) -> (T, T) + Sync,
+        one: T,
+    ) -> Result<SparseMatrix<T>, SolverError> {
+        let Some(sources) = &self.sources else {
+            return self.fill_by_position(d, off, one);
+        };
+        let off: Vec<(T, T)> = self.edges.par_iter().map(|&e| off(e)).collect();
+        let values = sources
+            .par_iter()
+            .map(|source| match *source {
+                Source::Diagonal { column, degree } => {
+                    d(column as usize) + one.scaled(degree as f64)
+                }
+                Source::Edge { edge, second } => {
+                    let (a, b) = off[edge as usize];
+                    if second { b } else { a }
+                }
+            })
+            .collect();
+        self.pattern.with_values(values)
+    }
+
+    /// [`DualLayout::fill`] when two faces share two edges: entries summed by position.
+    fn fill_by_position<T: Scalar>(
+        &self,
         d: impl Fn(usize) -> T,
         off: impl Fn(usize) -> (T, T),
         one: T,
     ) -> Result<SparseMatrix<T>, SolverError> {
+        let missing = || SolverError::Build("dual system entry missing from its pattern".into());
+        let position = |i: usize, j: usize| self.pattern.position(i, j).ok_or_else(missing);
         let mut v = vec![T::ZERO; self.pattern.nnz()];
-        for (i, &p) in self.diag.iter().enumerate() {
-            v[p] += d(i);
+        for i in 0..self.pattern.n() {
+            v[position(i, i)?] += d(i);
         }
-        for &(e, i, j, ji, ij) in &self.pairs {
-            v[self.diag[i]] += one;
-            v[self.diag[j]] += one;
+        for (&e, &(i, j)) in self.edges.iter().zip(&self.pairs) {
+            v[position(i, i)?] += one;
+            v[position(j, j)?] += one;
             let (a, b) = off(e);
-            v[ji] += a;
-            v[ij] += b;
+            v[position(j, i)?] += a;
+            v[position(i, j)?] += b;
         }
         self.pattern.with_values(v)
     }
 }
 
 pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
+    smooth_releasing_by(inp, Release::Downdate)
+}
+
+/// How the fixed-matching system takes the weights the cancellation released (see
+/// [`ReleasedSystem`]); tests compare the two.
+#[derive(Clone, Copy, PartialEq)]
+#[cfg_attr(not(test), allow(dead_code))] // `Refactor`: only tests ask for it.
+enum Release {
+    Downdate,
+    Refactor,
+}
+
+fn smooth_releasing_by(inp: &SmoothInput, release: Release) -> Result<SmoothOutput, SolverError> {
     let nf = inp.theta0.len();
     let tr = inp.transport;
     let step = TAU / inp.n as f64;
     let tau = inp.tau.max(0.0);
     let w: Vec<f64> = inp.omega.iter().map(|o| tau * o.max(0.0)).collect();
     let (start, adj) = dual_adjacency(tr, nf);
+    // Anchors of the fixed-matching system (before any weight is released).
+    let components = DualComponents::new(inp.omega, &start, &adj);
+    let anchor_fixed = components.anchors(&w);
 
     // τ = 0 asks for the smoothest field. Pinning one face would make the relaxed solve a
     // harmonic extension from that face, which is not the smoothest field and rounds worse than
@@ -319,10 +437,10 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
             .iter()
             .map(|o| GAUGE_WEIGHT * o.max(0.0))
             .collect();
-        let a0 = anchor_faces(&w0, inp.omega, &start, &adj);
+        let a0 = components.anchors(&w0);
         (w0, a0)
     } else {
-        (w.clone(), anchor_faces(&w, inp.omega, &start, &adj))
+        (w.clone(), anchor_fixed.clone())
     };
 
     let mut timings = Vec::new();
@@ -332,124 +450,256 @@ pub fn smooth(inp: &SmoothInput) -> Result<SmoothOutput, SolverError> {
         clock = std::time::Instant::now();
     };
     let layout = DualLayout::new(tr, nf)?;
-    let relaxed = match inp.relaxation {
-        Relaxation::Complex => {
-            let (matrix, rhs) = relaxed_complex_system(inp, &w_relaxed, &anchor_relaxed, &layout)?;
-            lap("smoothing: assembly".into(), &mut timings);
-            let hierarchy = Multigrid::new(&matrix)?;
-            drop(matrix);
-            lap("smoothing: relaxed multigrid setup".into(), &mut timings);
-            let solution =
-                hierarchy.solve(&rhs, None, relaxed_tolerance(tau), RELAXED_MAX_ITERATIONS)?;
-            lap(
-                format!("smoothing: relaxed CG ({} iterations)", solution.iterations),
-                &mut timings,
-            );
-            solution.x.iter().map(|z| z.arg() / inp.n as f64).collect()
-        }
-        Relaxation::SpanningForest => {
-            let theta = relaxed_forest(inp, &w_relaxed, &anchor_relaxed, &start, &adj);
-            lap("smoothing: relaxed spanning forest".into(), &mut timings);
-            theta
-        }
+    let fixed_matrix = |w: &[f64], is_anchor: &[bool]| {
+        layout.fill(
+            |i| w[i] + if is_anchor[i] { 1.0 } else { 0.0 },
+            |_| (-1.0, -1.0),
+            1.0,
+        )
     };
-    // Alignment targets: the representative of θ⁰ (mod 2π/N) nearest the relaxed angle.
-    let target: Vec<f64> = (0..nf)
-        .map(|i| inp.theta0[i] + step * ((relaxed[i] - inp.theta0[i]) / step).round())
-        .collect();
-    let mut r = nearest_turns(tr, &relaxed, step);
+    std::thread::scope(|scope| {
+        // Fixed-matching system: dual Laplacian + diag(τω) + anchors. Its matrix does not depend
+        // on the relaxed solution, only the right-hand side does (through the matchings), so it
+        // is factored on a thread of its own beside the relaxed solve (at a million faces the
+        // factorization takes 1.5 s and uses mostly one core). Weights the cancellation releases
+        // afterwards lower a few diagonal entries: solved with by a low-rank correction of this
+        // factor (see `sparse::downdate`), not a second factorization.
+        let factoring = scope.spawn(|| -> Result<(SpdSolver, SparseMatrix, f64), SolverError> {
+            let matrix = fixed_matrix(&w, &anchor_fixed)?;
+            let analysis = match inp.analysis {
+                Some(source) => source()?,
+                None => Analysis::new(&matrix)?,
+            };
+            let clock = std::time::Instant::now();
+            let solver = SpdSolver::with_analysis_sequential(analysis, &matrix)?;
+            Ok((solver, matrix, clock.elapsed().as_secs_f64()))
+        });
 
-    // Sec. 3.3 on the rounded relaxed field, before the fixed-matching system is factored: the
-    // faces along a cancelled pair's path lose their alignment weight (a moved singularity's
-    // path through trusted faces would otherwise leave a seam in the field), which changes that
-    // system's matrix, so deciding this first saves a second factorization (1.5 s at a million
-    // faces). The changed edges stay pinned in the rounding passes below, which would otherwise
-    // be free to round the pair back.
-    let mut w = w;
-    let mut pinned = vec![false; r.len()];
-    let mut released_any = false;
-    if let Some(adjust) = inp.adjust_turns
-        && let Some((adjusted, released)) = adjust(&relaxed, &r)
-    {
-        for (e, (a, b)) in adjusted.iter().zip(&r).enumerate() {
-            pinned[e] = a != b;
+        let relaxed = match inp.relaxation {
+            Relaxation::Complex => {
+                let (matrix, rhs) =
+                    relaxed_complex_system(inp, &w_relaxed, &anchor_relaxed, &layout)?;
+                lap("smoothing: assembly".into(), &mut timings);
+                let hierarchy = Multigrid::new(&matrix)?;
+                drop(matrix);
+                lap("smoothing: relaxed multigrid setup".into(), &mut timings);
+                let solution =
+                    hierarchy.solve(&rhs, None, relaxed_tolerance(tau), RELAXED_MAX_ITERATIONS)?;
+                lap(
+                    format!("smoothing: relaxed CG ({} iterations)", solution.iterations),
+                    &mut timings,
+                );
+                solution.x.iter().map(|z| z.arg() / inp.n as f64).collect()
+            }
+            Relaxation::SpanningForest => {
+                let theta = relaxed_forest(inp, &w_relaxed, &anchor_relaxed, &start, &adj);
+                lap("smoothing: relaxed spanning forest".into(), &mut timings);
+                theta
+            }
+        };
+        // Alignment targets: the representative of θ⁰ (mod 2π/N) nearest the relaxed angle.
+        let target: Vec<f64> = (0..nf)
+            .map(|i| inp.theta0[i] + step * ((relaxed[i] - inp.theta0[i]) / step).round())
+            .collect();
+        let mut r = nearest_turns(tr, &relaxed, step);
+
+        // Sec. 3.3 on the rounded relaxed field: the faces along a cancelled pair's path lose
+        // their alignment weight (a moved singularity's path through trusted faces would
+        // otherwise leave a seam in the field). The changed edges stay pinned in the rounding
+        // passes below, which would otherwise be free to round the pair back.
+        let mut w = w.clone();
+        let mut pinned = vec![false; r.len()];
+        let mut released = Vec::new();
+        if let Some(adjust) = inp.adjust_turns
+            && let Some((adjusted, faces)) = adjust(&relaxed, &r)
+        {
+            for (e, (a, b)) in adjusted.iter().zip(&r).enumerate() {
+                pinned[e] = a != b;
+            }
+            r = adjusted;
+            for f in faces {
+                if w[f] != 0.0 {
+                    released.push((f, w[f]));
+                    w[f] = 0.0;
+                }
+            }
         }
-        r = adjusted;
-        for f in released {
-            released_any |= w[f] != 0.0;
-            w[f] = 0.0;
+        lap("smoothing: cancellation".into(), &mut timings);
+
+        let (solver, matrix_before, factor_seconds) = factoring
+            .join()
+            .map_err(|_| SolverError::Build("the factorization thread panicked".into()))??;
+        lap(
+            "smoothing: waiting for the fixed-matching factorization".into(),
+            &mut timings,
+        );
+        timings.push((
+            "smoothing: (beside the relaxed solve) fixed-matching factorization".into(),
+            factor_seconds,
+        ));
+        let is_anchor = if released.is_empty() {
+            anchor_fixed.clone()
+        } else {
+            components.anchors(&w)
+        };
+        let released_system = if released.is_empty() {
+            ReleasedSystem::Unchanged
+        } else if release == Release::Downdate
+            && is_anchor == anchor_fixed
+            && let Some(system) = ReleasedSystem::downdate(&solver, matrix_before, &released)
+        {
+            system
+        } else {
+            let matrix = fixed_matrix(&w, &is_anchor)?;
+            ReleasedSystem::Refactored(SpdSolver::with_analysis(
+                solver.analysis().clone(),
+                &matrix,
+            )?)
+        };
+        if !released.is_empty() {
+            lap(released_system.describe(released.len()), &mut timings);
+        }
+
+        // Right-hand side of the fixed-matching system for the turns r.
+        let rhs_for = |r: &[i64]| {
+            let mut rhs: Vec<f64> = (0..nf)
+                .map(|i| w[i] * target[i] + if is_anchor[i] { relaxed[i] } else { 0.0 })
+                .collect();
+            for (e, f) in tr.faces.iter().enumerate() {
+                if f[1] != NO_FACE {
+                    let c = tr.kappa[e] + step * r[e] as f64;
+                    rhs[f[0] as usize] -= c;
+                    rhs[f[1] as usize] += c;
+                }
+            }
+            rhs
+        };
+        let mut passes = 0;
+        let theta = loop {
+            passes += 1;
+            let theta = released_system.solve(&solver, &rhs_for(&r))?;
+            let mut r_new = nearest_turns(tr, &theta, step);
+            for (e, p) in pinned.iter().enumerate() {
+                if *p {
+                    r_new[e] = r[e];
+                }
+            }
+            if r_new == r || passes >= MAX_PASSES {
+                break theta;
+            }
+            r = r_new;
+        };
+        let fell_back = if released_system.fell_back() {
+            "; the low-rank correction was inaccurate, refactored"
+        } else {
+            ""
+        };
+        lap(
+            format!("smoothing: rounding passes ({passes}{fell_back})"),
+            &mut timings,
+        );
+        let (e_smooth, e_align) = energies(tr, step, &theta, &r, inp.omega, &target);
+        Ok(SmoothOutput {
+            theta,
+            r,
+            e_smooth,
+            e_align,
+            passes,
+            anchors: (0..nf).filter(|&i| is_anchor[i]).collect(),
+            timings,
+        })
+    })
+}
+
+/// The fixed-matching system after the cancellation released alignment weights: the factor of
+/// the system before, corrected for the lowered diagonal (Woodbury, `sparse::downdate`), or, when
+/// that does not apply (a small, simplicial factor; a component left without any weight, which
+/// changes the anchors), a refactorization.
+#[allow(clippy::large_enum_variant)] // one per smoothing, never moved around
+enum ReleasedSystem<'a> {
+    Unchanged,
+    Downdated {
+        downdate: DiagonalDowndate<'a>,
+        /// The system before the release and the released (face, weight), to check each
+        /// solution's residual: the correction loses digits when released weights dwarf the
+        /// rest of their row (τ ≫ 1), and then the system is refactored after all (once).
+        before: SparseMatrix,
+        released: Vec<(usize, f64)>,
+        fallback: std::sync::OnceLock<SpdSolver>,
+    },
+    Refactored(SpdSolver),
+}
+
+/// Relative residual above which a downdated solve is not trusted (the factorization's own are
+/// around 1e-15).
+const DOWNDATE_RESIDUAL: f64 = 1e-10;
+
+impl<'a> ReleasedSystem<'a> {
+    fn downdate(
+        solver: &'a SpdSolver,
+        before: SparseMatrix,
+        released: &[(usize, f64)],
+    ) -> Option<Self> {
+        let (faces, decrease): (Vec<usize>, Vec<f64>) = released.iter().copied().unzip();
+        let downdate = solver.downdated(&faces, &decrease).ok()?;
+        Some(ReleasedSystem::Downdated {
+            downdate,
+            before,
+            released: released.to_vec(),
+            fallback: std::sync::OnceLock::new(),
+        })
+    }
+
+    fn describe(&self, released: usize) -> String {
+        match self {
+            ReleasedSystem::Refactored(_) => {
+                format!("smoothing: refactorization ({released} released faces)")
+            }
+            _ => format!("smoothing: low-rank correction ({released} released faces)"),
         }
     }
-    lap("smoothing: cancellation".into(), &mut timings);
 
-    // Fixed-matching system: dual Laplacian + diag(τω) + anchors. Only the right-hand side
-    // depends on the matchings, so one factorization serves all passes. Its anchors are the
-    // relaxed system's unless that one used the gauge weights (τ = 0) or weights were released.
-    let is_anchor = if tau > 0.0 && !released_any {
-        anchor_relaxed
-    } else {
-        anchor_faces(&w, inp.omega, &start, &adj)
-    };
-    let fixed_matrix = layout.fill(
-        |i| w[i] + if is_anchor[i] { 1.0 } else { 0.0 },
-        |_| (-1.0, -1.0),
-        1.0,
-    )?;
-    let analysis = match inp.analysis {
-        Some(source) => source()?,
-        None => Analysis::new(&fixed_matrix)?,
-    };
-    lap("smoothing: waiting for the analysis".into(), &mut timings);
-    let solver = SpdSolver::with_analysis(analysis, &fixed_matrix)?;
-    drop(fixed_matrix);
-    lap(
-        "smoothing: fixed-matching factorization".into(),
-        &mut timings,
-    );
-
-    // Right-hand side of the fixed-matching system for the turns r.
-    let rhs_for = |r: &[i64]| {
-        let mut rhs: Vec<f64> = (0..nf)
-            .map(|i| w[i] * target[i] + if is_anchor[i] { relaxed[i] } else { 0.0 })
-            .collect();
-        for (e, f) in tr.faces.iter().enumerate() {
-            if f[1] != NO_FACE {
-                let c = tr.kappa[e] + step * r[e] as f64;
-                rhs[f[0] as usize] -= c;
-                rhs[f[1] as usize] += c;
+    fn solve(&self, solver: &SpdSolver, rhs: &[f64]) -> Result<Vec<f64>, SolverError> {
+        match self {
+            ReleasedSystem::Unchanged => solver.solve(rhs),
+            ReleasedSystem::Refactored(refactored) => refactored.solve(rhs),
+            ReleasedSystem::Downdated {
+                downdate,
+                before,
+                released,
+                fallback,
+            } => {
+                if let Some(refactored) = fallback.get() {
+                    return refactored.solve(rhs);
+                }
+                let x = downdate.solve(rhs)?;
+                let mut residual = before.mul_vec(&x);
+                for &(f, d) in released {
+                    residual[f] -= d * x[f];
+                }
+                let norm = |v: &mut dyn Iterator<Item = f64>| v.map(|a| a * a).sum::<f64>().sqrt();
+                let error = norm(&mut residual.iter().zip(rhs).map(|(a, b)| a - b));
+                if error <= DOWNDATE_RESIDUAL * norm(&mut rhs.iter().copied()) {
+                    return Ok(x);
+                }
+                let mut values = before.values().to_vec();
+                for &(f, d) in released {
+                    let p = before.position(f, f).ok_or_else(|| {
+                        SolverError::Build("fixed-matching diagonal entry missing".into())
+                    })?;
+                    values[p] -= d;
+                }
+                let matrix = before.with_values(values)?;
+                let refactored = SpdSolver::with_analysis(solver.analysis().clone(), &matrix)?;
+                fallback.get_or_init(|| refactored).solve(rhs)
             }
         }
-        rhs
-    };
-    let mut passes = 0;
-    let theta = loop {
-        passes += 1;
-        let theta = solver.solve(&rhs_for(&r))?;
-        let mut r_new = nearest_turns(tr, &theta, step);
-        for (e, p) in pinned.iter().enumerate() {
-            if *p {
-                r_new[e] = r[e];
-            }
-        }
-        if r_new == r || passes >= MAX_PASSES {
-            break theta;
-        }
-        r = r_new;
-    };
-    lap(
-        format!("smoothing: rounding passes ({passes})"),
-        &mut timings,
-    );
-    let (e_smooth, e_align) = energies(tr, step, &theta, &r, inp.omega, &target);
-    Ok(SmoothOutput {
-        theta,
-        r,
-        e_smooth,
-        e_align,
-        passes,
-        anchors: (0..nf).filter(|&i| is_anchor[i]).collect(),
-        timings,
-    })
+    }
+
+    /// Whether a downdated solve was found inaccurate and the system refactored.
+    fn fell_back(&self) -> bool {
+        matches!(self, ReleasedSystem::Downdated { fallback, .. } if fallback.get().is_some())
+    }
 }
 
 /// E_smooth (eq. 3.5) and E_align (eq. 3.6, without τ).
@@ -486,6 +736,7 @@ fn relaxed_complex_system(
     let tr = inp.transport;
     let d = |i: usize| w[i] + if is_anchor[i] { 1.0 } else { 0.0 };
     let rhs = (0..inp.theta0.len())
+        .into_par_iter()
         .map(|i| c64::from_polar(d(i), n * inp.theta0[i]))
         .collect();
     // |z_j − ρ z_i|², ρ = e^{iNκ_ij}: ones on the diagonal, −ρ at (j, i), −conj(ρ) at (i, j).
@@ -575,5 +826,88 @@ mod tests {
         );
         assert!(dual_pattern(3, [(0, 3)].into_iter()).is_err());
         assert!(dual_pattern(3, [(1, 1)].into_iter()).is_err());
+    }
+
+    /// The parallel fill by entry sources writes the same matrix as summing by position.
+    #[test]
+    fn layout_fill_by_sources_equals_fill_by_position() {
+        let mesh = torus_alternating(3.0, 1.0, 12, 6);
+        let tr = EdgeTransport::new(&mesh, &FaceBases::new(&mesh));
+        let layout = DualLayout::new(&tr, mesh.n_faces()).unwrap();
+        assert!(layout.sources.is_some());
+        let d = |i: usize| c64::new(0.5 + i as f64, 0.0);
+        let off = |e: usize| {
+            let rho = c64::from_polar(1.0, e as f64);
+            (-rho, -rho.conj())
+        };
+        let one = c64::new(1.0, 0.0);
+        let fast = layout.fill(d, off, one).unwrap();
+        let slow = layout.fill_by_position(d, off, one).unwrap();
+        assert_eq!(fast.entries(), slow.entries());
+        // Hermitian, and each row sums its diagonal weight, degree and couplings.
+        for (i, j, v) in fast.entries() {
+            let p = fast.position(j, i).unwrap();
+            assert_eq!(fast.values()[p], v.conj());
+        }
+    }
+
+    /// Released weights taken by the low-rank correction of the factor give the field a
+    /// refactorization gives: the same matchings and angles to rounding error.
+    #[test]
+    fn released_weights_by_downdate_equal_a_refactorization() {
+        use crate::field::curvature::Curvature;
+        let mesh = torus_alternating(3.0, 1.0, 240, 120);
+        let bases = FaceBases::new(&mesh);
+        let tr = EdgeTransport::new(&mesh, &bases);
+        let curvature = Curvature::compute(&mesh, &bases, 0);
+        let omega = curvature.reliability(0.1, &vec![true; mesh.n_faces()]);
+        let reliable = omega.iter().filter(|w| **w > 0.0).count();
+        // Release every seventh of the first half of the reliable faces, keep the turns.
+        let released: Vec<usize> = (0..mesh.n_faces())
+            .filter(|&f| omega[f] > 0.0)
+            .take(reliable / 2)
+            .step_by(7)
+            .collect();
+        assert!(released.len() > 50, "{} of {reliable}", released.len());
+        let adjust = |_: &[f64], turns: &[i64]| Some((turns.to_vec(), released.clone()));
+        let input = SmoothInput {
+            n: 4,
+            transport: &tr,
+            theta0: &curvature.dir1,
+            omega: &omega,
+            tau: 100.0,
+            relaxation: Relaxation::Complex,
+            adjust_turns: Some(&adjust),
+            analysis: None,
+        };
+        let down = smooth_releasing_by(&input, Release::Downdate).unwrap();
+        let refactored = smooth_releasing_by(&input, Release::Refactor).unwrap();
+        let took =
+            |out: &SmoothOutput, what: &str| out.timings.iter().any(|(n, _)| n.contains(what));
+        assert!(took(&down, "low-rank correction"), "{:?}", down.timings);
+        assert!(took(&refactored, "refactorization"));
+        assert!(!took(&down, "refactored"), "{:?}", down.timings);
+        assert_eq!(down.r, refactored.r);
+        let diff = down
+            .theta
+            .iter()
+            .zip(&refactored.theta)
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        assert!(diff < 1e-9, "angles differ by {diff:e}");
+        // The release mattered: without it the angles are others.
+        let kept = smooth_releasing_by(
+            &SmoothInput {
+                adjust_turns: None,
+                ..input
+            },
+            Release::Downdate,
+        )
+        .unwrap();
+        let moved = kept
+            .theta
+            .iter()
+            .zip(&down.theta)
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        assert!(moved > 1e-6, "releasing changed nothing ({moved:e})");
     }
 }
