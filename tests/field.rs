@@ -365,8 +365,14 @@ fn smoothness_energy_decreases_with_tau_and_large_tau_keeps_curvature_directions
     let Some(mesh) = load("fertility.obj") else {
         return;
     };
+    // Rounding the matchings is a heuristic, so between neighbouring τ (1e4 and 100 give nearly
+    // the same field) E_smooth may wiggle by a rounding decision or two: 0.5 % is allowed there
+    // (seen: 0.14 %, N = 6, where τ = 1e4 found the smoother rounding). The trend is asserted
+    // over the whole range: the smoothest field (τ = 0) is at least 5 % smoother than the
+    // curvature-bound one (seen: 18 % for N = 4, 7 % for N = 6).
     for sym in [Symmetry::Four, Symmetry::Six] {
         let mut last = f64::INFINITY;
+        let mut first = None;
         for tau in [1e4, 100.0, 1.0, 0.01, 0.0] {
             let res = compute_field(&mesh, &FieldParams { tau, ..params(sym) }).unwrap();
             println!(
@@ -377,12 +383,21 @@ fn smoothness_energy_decreases_with_tau_and_large_tau_keeps_curvature_directions
                 res.indices.singularities.len()
             );
             assert!(
-                res.e_smooth <= last * (1.0 + 1e-9),
+                res.e_smooth <= last * 1.005,
                 "N={} τ={tau}: {} > {last}",
                 sym.n(),
                 res.e_smooth
             );
             last = res.e_smooth;
+            let first = *first.get_or_insert(res.e_smooth);
+            if tau == 0.0 {
+                assert!(
+                    res.e_smooth < 0.95 * first,
+                    "N={}: τ = 0 gives {} against {first} for τ = 1e4",
+                    sym.n(),
+                    res.e_smooth
+                );
+            }
             if tau >= 1e4 {
                 let step = TAU / sym.n() as f64;
                 let mut worst: f64 = 0.0;

@@ -34,8 +34,6 @@ use super::{Scalar, SolverError, SparseMatrix};
 const LEAF: usize = 4;
 /// Parts larger than this try all three axes for the smallest separator.
 const BEST_AXIS_MIN: usize = 2000;
-/// Parts larger than this are split on two threads.
-const PARALLEL_MIN: usize = 20_000;
 
 /// An unknown with its point, contiguous so that the median selections stream through memory.
 #[derive(Clone, Copy)]
@@ -122,12 +120,8 @@ impl Dissection<'_> {
         part[interior..].rotate_left(mid - interior);
         let (lower, rest) = part.split_at_mut(interior);
         let upper = &mut rest[..n - mid];
-        if n > PARALLEL_MIN {
-            rayon::join(|| self.order(lower), || self.order(upper));
-        } else {
-            self.order(lower);
-            self.order(upper);
-        }
+        self.order(lower);
+        self.order(upper);
     }
 
     /// Stamps the upper half of `part` (split at its middle) and counts the lower half's unknowns

@@ -13,7 +13,7 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, Par, Side};
 
-pub use faer::c64;
+pub use faer::{c32, c64};
 use thiserror::Error;
 
 pub mod dissection;
@@ -72,10 +72,22 @@ pub trait Scalar:
     fn from_real(x: f64) -> Self;
     /// x · s for a real s.
     fn scaled(self, s: f64) -> Self;
+    /// The single-precision type of the same kind (`f32`, `c32`; itself for those), in which
+    /// [`Multigrid`] keeps its hierarchy.
+    type Single: Scalar;
+    fn to_single(self) -> Self::Single;
+    fn from_single(x: Self::Single) -> Self;
 }
 
 impl Scalar for f64 {
     const ZERO: f64 = 0.0;
+    type Single = f32;
+    fn to_single(self) -> f32 {
+        self as f32
+    }
+    fn from_single(x: f32) -> f64 {
+        x as f64
+    }
     fn finite(self) -> bool {
         self.is_finite()
     }
@@ -98,6 +110,13 @@ impl Scalar for f64 {
 
 impl Scalar for c64 {
     const ZERO: c64 = c64::new(0.0, 0.0);
+    type Single = c32;
+    fn to_single(self) -> c32 {
+        c32::new(self.re as f32, self.im as f32)
+    }
+    fn from_single(x: c32) -> c64 {
+        c64::new(x.re as f64, x.im as f64)
+    }
     fn finite(self) -> bool {
         self.re.is_finite() && self.im.is_finite()
     }
@@ -115,6 +134,65 @@ impl Scalar for c64 {
     }
     fn scaled(self, s: f64) -> c64 {
         c64::new(self.re * s, self.im * s)
+    }
+}
+
+impl Scalar for f32 {
+    const ZERO: f32 = 0.0;
+    type Single = f32;
+    fn to_single(self) -> f32 {
+        self
+    }
+    fn from_single(x: f32) -> f32 {
+        x
+    }
+    fn finite(self) -> bool {
+        self.is_finite()
+    }
+    fn conjugate(self) -> f32 {
+        self
+    }
+    fn modulus_sq(self) -> f64 {
+        (self * self) as f64
+    }
+    fn real_part(self) -> f64 {
+        self as f64
+    }
+    fn from_real(x: f64) -> f32 {
+        x as f32
+    }
+    fn scaled(self, s: f64) -> f32 {
+        self * s as f32
+    }
+}
+
+impl Scalar for c32 {
+    const ZERO: c32 = c32::new(0.0, 0.0);
+    type Single = c32;
+    fn to_single(self) -> c32 {
+        self
+    }
+    fn from_single(x: c32) -> c32 {
+        x
+    }
+    fn finite(self) -> bool {
+        self.re.is_finite() && self.im.is_finite()
+    }
+    fn conjugate(self) -> c32 {
+        c32::new(self.re, -self.im)
+    }
+    fn modulus_sq(self) -> f64 {
+        (self.re * self.re + self.im * self.im) as f64
+    }
+    fn real_part(self) -> f64 {
+        self.re as f64
+    }
+    fn from_real(x: f64) -> c32 {
+        c32::new(x as f32, 0.0)
+    }
+    fn scaled(self, s: f64) -> c32 {
+        let s = s as f32;
+        c32::new(self.re * s, self.im * s)
     }
 }
 
