@@ -280,15 +280,20 @@ pub fn compute_field_then<T: Send>(
     // nested dissection of the face centroids on large meshes) depends on the mesh only: it runs
     // on a thread of its own from the start, beside the bases and the curvature.
     std::thread::scope(|scope| {
-        let pending = std::sync::Mutex::new(Some(scope.spawn(|| {
-            let pairs = (0..mesh.n_edges()).filter_map(|e| match mesh.edge_halfedges(e) {
-                (h0, Some(h1)) => Some((mesh.face_of(h0), mesh.face_of(h1))),
-                _ => None,
-            });
+        // The dual systems' layout first (the smoothing needs it after the curvature), then the
+        // analysis of its pattern (needed by the fixed-matching factorization).
+        let (layout_tx, layout_rx) = std::sync::mpsc::channel();
+        let pending = std::sync::Mutex::new(Some(scope.spawn(move || {
+            let layout = smoothing::DualLayout::from_mesh(mesh).map(std::sync::Arc::new);
+            let _ = layout_tx.send(layout.clone());
             let centroids: Vec<_> = (0..mesh.n_faces()).map(|f| mesh.face_centroid(f)).collect();
-            smoothing::dual_pattern(mesh.n_faces(), pairs)
-                .and_then(|m| Analysis::geometric(&m, &centroids))
+            Analysis::geometric(layout?.pattern(), &centroids)
         })));
+        let layout = || -> Result<std::sync::Arc<smoothing::DualLayout>, SolverError> {
+            layout_rx
+                .recv()
+                .unwrap_or_else(|_| Err(SolverError::Build("the layout thread ended early".into())))
+        };
         let done = std::sync::OnceLock::new();
         let analysis = || -> Result<Analysis, SolverError> {
             done.get_or_init(|| match pending.lock().ok().and_then(|mut p| p.take()) {
@@ -299,7 +304,7 @@ pub fn compute_field_then<T: Send>(
             })
             .clone()
         };
-        field_with_analysis(mesh, params, next, &analysis)
+        field_with_analysis(mesh, params, next, &analysis, &layout)
     })
 }
 
@@ -308,6 +313,7 @@ fn field_with_analysis<T: Send>(
     params: &FieldParams,
     next: impl FnOnce(&[i32]) -> T + Send,
     analysis: &smoothing::AnalysisSource,
+    layout: &dyn Fn() -> Result<std::sync::Arc<smoothing::DualLayout>, SolverError>,
 ) -> Result<(FieldResult, T), FieldError> {
     let n = params.symmetry.n();
     let mut timings = Vec::new();
@@ -336,6 +342,7 @@ fn field_with_analysis<T: Send>(
     let cancel = |theta: &[f64], turns: &[i64]| {
         cancel::cancel_close_pairs(mesh, &tr, theta, turns, n, radius)
     };
+    let layout = layout()?;
     let sm = smoothing::smooth(&smoothing::SmoothInput {
         n,
         transport: &tr,
@@ -345,6 +352,7 @@ fn field_with_analysis<T: Send>(
         relaxation: params.relaxation,
         adjust_turns: (radius > 0.0).then_some(&cancel as &smoothing::AdjustTurns),
         analysis: Some(analysis),
+        layout: Some(&layout),
     })?;
     timings.extend(sm.timings.iter().cloned());
     clock = Instant::now();

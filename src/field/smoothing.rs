@@ -31,6 +31,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::transport::{EdgeTransport, NO_FACE};
+use crate::mesh::TriMesh;
 use crate::sparse::{
     Analysis, DiagonalDowndate, Multigrid, Scalar, SolverError, SparseBuilder, SparseMatrix,
     SpdSolver, c64,
@@ -74,22 +75,13 @@ pub struct SmoothInput<'a> {
     /// is built: may return changed turns (e.g. close singularity pairs cancelled, sec. 3.3),
     /// which the rounding passes then keep, and faces whose alignment weight to drop.
     pub adjust_turns: Option<&'a AdjustTurns<'a>>,
-    /// Where the analysis of [`dual_pattern`] comes from if it is computed elsewhere
+    /// Where the analysis of [`DualLayout::pattern`] comes from if it is computed elsewhere
     /// (it depends on the mesh only, so callers compute it while other work runs); asked for
     /// by the thread that factors the fixed-matching system beside the relaxed solve.
     pub analysis: Option<&'a AnalysisSource<'a>>,
-}
-
-/// The pattern of the smoothing systems: the dual graph (faces adjacent across an interior edge,
-/// `pairs` yields them) and the diagonal; placeholder values. All of them (fixed-matching and
-/// relaxed, real and complex) share it; the fixed-matching system is factored with its
-/// [`Analysis`], the relaxed one solved by multigrid.
-pub fn dual_pattern(
-    nf: usize,
-    pairs: impl Iterator<Item = (usize, usize)>,
-) -> Result<SparseMatrix, SolverError> {
-    let pairs: Vec<(usize, usize)> = pairs.collect();
-    Ok(dual_columns(nf, &pairs)?.0)
+    /// The layout of the dual systems if built elsewhere ([`DualLayout::from_mesh`] of this
+    /// mesh); built here otherwise.
+    pub layout: Option<&'a DualLayout>,
 }
 
 /// Where a value of a dual system comes from: the diagonal of a column, or one side of an edge's
@@ -107,8 +99,10 @@ enum Source {
     },
 }
 
-/// [`dual_pattern`] and, when every pair of faces is adjacent once, where each of its entries
-/// comes from (the index in `pairs` for the edges).
+/// The pattern of the smoothing systems: the dual graph (faces adjacent across an interior edge,
+/// `pairs` lists them) and the diagonal, with placeholder values, which all of them
+/// (fixed-matching and relaxed, real and complex) share; and, when every pair of faces is
+/// adjacent once, where each of its entries comes from (the index in `pairs` for the edges).
 fn dual_columns(
     nf: usize,
     pairs: &[(usize, usize)],
@@ -324,7 +318,9 @@ impl DualComponents {
 
 /// Where each entry of the dual systems comes from, so that a system is written in place, in
 /// parallel, instead of being assembled from triplets again (0.3 s a system at 1.1 M faces).
-struct DualLayout {
+/// It depends on the mesh only: [`DualLayout::from_mesh`] lets a caller build it while other
+/// work runs ([`SmoothInput::layout`]).
+pub struct DualLayout {
     pattern: SparseMatrix,
     /// The interior edges and their faces (i = faces[0], j = faces[1]).
     edges: Vec<usize>,
@@ -342,6 +338,41 @@ impl DualLayout {
             .iter()
             .map(|&e| (tr.faces[e][0] as usize, tr.faces[e][1] as usize))
             .collect();
+        Self::with_pairs(nf, edges, pairs)
+    }
+
+    /// The layout of a mesh's dual systems (the same as the transport's: an edge's faces are
+    /// those of its two halfedges).
+    pub fn from_mesh(mesh: &TriMesh) -> Result<DualLayout, SolverError> {
+        let (edges, pairs): (Vec<usize>, Vec<(usize, usize)>) = (0..mesh.n_edges())
+            .filter_map(|e| match mesh.edge_halfedges(e) {
+                (h0, Some(h1)) => Some((e, (mesh.face_of(h0), mesh.face_of(h1)))),
+                _ => None,
+            })
+            .unzip();
+        Self::with_pairs(mesh.n_faces(), edges, pairs)
+    }
+
+    /// Whether this is the layout of the transport's mesh (same interior edges and faces).
+    fn matches(&self, tr: &EdgeTransport) -> bool {
+        self.edges.len() == tr.n_interior()
+            && self
+                .edges
+                .iter()
+                .zip(&self.pairs)
+                .all(|(&e, &(i, j))| tr.faces.get(e) == Some(&[i as u32, j as u32]))
+    }
+
+    /// The pattern every dual system shares (placeholder values), e.g. for its analysis.
+    pub fn pattern(&self) -> &SparseMatrix {
+        &self.pattern
+    }
+
+    fn with_pairs(
+        nf: usize,
+        edges: Vec<usize>,
+        pairs: Vec<(usize, usize)>,
+    ) -> Result<DualLayout, SolverError> {
         let (pattern, sources) = dual_columns(nf, &pairs)?;
         Ok(DualLayout {
             pattern,
@@ -449,7 +480,14 @@ fn smooth_releasing_by(inp: &SmoothInput, release: Release) -> Result<SmoothOutp
         timings.push((name, clock.elapsed().as_secs_f64()));
         clock = std::time::Instant::now();
     };
-    let layout = DualLayout::new(tr, nf)?;
+    let built;
+    let layout = match inp.layout {
+        Some(layout) if layout.pattern.n() == nf && layout.matches(tr) => layout,
+        _ => {
+            built = DualLayout::new(tr, nf)?;
+            &built
+        }
+    };
     let fixed_matrix = |w: &[f64], is_anchor: &[bool]| {
         layout.fill(
             |i| w[i] + if is_anchor[i] { 1.0 } else { 0.0 },
@@ -478,7 +516,7 @@ fn smooth_releasing_by(inp: &SmoothInput, release: Release) -> Result<SmoothOutp
         let relaxed = match inp.relaxation {
             Relaxation::Complex => {
                 let (matrix, rhs) =
-                    relaxed_complex_system(inp, &w_relaxed, &anchor_relaxed, &layout)?;
+                    relaxed_complex_system(inp, &w_relaxed, &anchor_relaxed, layout)?;
                 lap("smoothing: assembly".into(), &mut timings);
                 let hierarchy = Multigrid::new(&matrix)?;
                 drop(matrix);
@@ -816,16 +854,16 @@ mod tests {
             b.build().unwrap().entries()
         };
         let nf = mesh.n_faces();
-        let direct = dual_pattern(nf, pairs.iter().copied()).unwrap();
+        let direct = dual_columns(nf, &pairs).unwrap().0;
         assert_eq!(direct.entries(), by_triplets(nf, &pairs));
         assert_eq!(direct.nnz(), nf + 2 * pairs.len());
         let pillow = [(0, 1), (1, 0), (1, 2)];
         assert_eq!(
-            dual_pattern(3, pillow.iter().copied()).unwrap().entries(),
+            dual_columns(3, &pillow).unwrap().0.entries(),
             by_triplets(3, &pillow)
         );
-        assert!(dual_pattern(3, [(0, 3)].into_iter()).is_err());
-        assert!(dual_pattern(3, [(1, 1)].into_iter()).is_err());
+        assert!(dual_columns(3, &[(0, 3)]).is_err());
+        assert!(dual_columns(3, &[(1, 1)]).is_err());
     }
 
     /// The parallel fill by entry sources writes the same matrix as summing by position.
@@ -835,6 +873,12 @@ mod tests {
         let tr = EdgeTransport::new(&mesh, &FaceBases::new(&mesh));
         let layout = DualLayout::new(&tr, mesh.n_faces()).unwrap();
         assert!(layout.sources.is_some());
+        // Built from the mesh alone, it is the transport's; another mesh's is not.
+        let from_mesh = DualLayout::from_mesh(&mesh).unwrap();
+        assert!(from_mesh.matches(&tr));
+        assert_eq!(from_mesh.pattern().entries(), layout.pattern().entries());
+        let other = torus_alternating(3.0, 1.0, 13, 6);
+        assert!(!DualLayout::from_mesh(&other).unwrap().matches(&tr));
         let d = |i: usize| c64::new(0.5 + i as f64, 0.0);
         let off = |e: usize| {
             let rho = c64::from_polar(1.0, e as f64);
@@ -879,6 +923,7 @@ mod tests {
             relaxation: Relaxation::Complex,
             adjust_turns: Some(&adjust),
             analysis: None,
+            layout: None,
         };
         let down = smooth_releasing_by(&input, Release::Downdate).unwrap();
         let refactored = smooth_releasing_by(&input, Release::Refactor).unwrap();
