@@ -8,16 +8,16 @@
 //! the top of the tree decide most of the factorization's work), the bounding box's longest one
 //! below that.
 //!
-//! Measured on the dual graph of shared meshes subdivided in memory (2 cores; nnz(L) and
-//! sequential numeric factorization):
+//! Measured on the dual graph of shared meshes subdivided in memory (one thread each: the
+//! ordering runs beside other work; nnz(L); sequential numeric factorization):
 //!
 //! | faces | AMD: analysis, nnz(L), factor | nested dissection: ordering + analysis, nnz(L), factor |
 //! |---|---|---|
 //! | 69 k (bunny) | 0.05 s, 2.0 M, 0.05 s | 0.03 s, 2.4 M, 0.05 s |
 //! | 278 k (bunny ×4) | 0.26 s, 9.7 M, 0.21 s | 0.14 s, 11.0 M, 0.25 s |
-//! | 1.1 M (bunny ×16) | 1.5 s, 49.2 M, 1.20 s | 0.66 s, 49.2 M, 1.19 s |
-//! | 1.1 M (igea ×4) | 1.3 s, 51.0 M, 1.34 s | 0.62 s, 49.8 M, 1.25 s |
-//! | 4.3 M (igea ×16) | 5.4 s, 260 M, 31.7 s | 2.7 s, 220 M, 7.2 s |
+//! | 1.1 M (bunny ×16) | 1.5 s, 49.2 M, 1.20 s | 0.5 + 0.4 s, 49.2 M, 1.19 s |
+//! | 1.1 M (igea ×4) | 1.3 s, 51.0 M, 1.34 s | 0.45 + 0.4 s, 49.8 M, 1.25 s |
+//! | 4.3 M (igea ×16) | 5.4 s, 260 M, 31.7 s | 2.1 + 1.6 s, 220 M, 7.2 s |
 //!
 //! Below a few hundred thousand unknowns AMD's fill is 10–50 % smaller, so [`Analysis::geometric`]
 //! keeps AMD there.
