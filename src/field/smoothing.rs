@@ -906,13 +906,14 @@ mod tests {
         let curvature = Curvature::compute(&mesh, &bases, 0);
         let omega = curvature.reliability(0.1, &vec![true; mesh.n_faces()]);
         let reliable = omega.iter().filter(|w| **w > 0.0).count();
-        // Release every seventh of the first half of the reliable faces, keep the turns.
+        // Release every 70th of the first half of the reliable faces, keep the turns (a few dozen,
+        // as cancelled pairs release: with hundreds on this small mesh, refactoring is cheaper).
         let released: Vec<usize> = (0..mesh.n_faces())
             .filter(|&f| omega[f] > 0.0)
             .take(reliable / 2)
-            .step_by(7)
+            .step_by(70)
             .collect();
-        assert!(released.len() > 50, "{} of {reliable}", released.len());
+        assert!(released.len() > 20, "{} of {reliable}", released.len());
         let adjust = |_: &[f64], turns: &[i64]| Some((turns.to_vec(), released.clone()));
         let input = SmoothInput {
             n: 4,

@@ -497,7 +497,8 @@ impl Analysis {
         matrix: &SparseMatrix<T>,
         points: &[glam::DVec3],
     ) -> Result<Analysis, SolverError> {
-        if matrix.n() < DISSECTION_MIN {
+        // Non-finite points (a mesh validated elsewhere has none) fall back to AMD as well.
+        if matrix.n() < DISSECTION_MIN || !points.iter().all(|p| p.is_finite()) {
             Analysis::new(matrix)
         } else {
             Analysis::with_order(matrix, &nested_dissection(matrix, points)?)
