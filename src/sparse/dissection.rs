@@ -172,29 +172,19 @@ fn longest_axis(part: &[Item]) -> usize {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{Analysis, SparseBuilder, SpdSolver};
+    use super::super::{Analysis, SpdSolver};
     use super::*;
 
     /// The 5-point Laplacian (plus identity) of a side × side grid, its unknowns at their grid
     /// points on a tilted plane.
     fn grid(side: usize) -> (SparseMatrix, Vec<DVec3>) {
-        let n = side * side;
-        let mut b = SparseBuilder::new(n);
-        let mut points = Vec::with_capacity(n);
-        for i in 0..n {
-            let (x, y) = (i % side, i / side);
-            points.push(DVec3::new(x as f64, y as f64, 0.3 * x as f64));
-            b.add(i, i, 1.0);
-            for (nx, ny) in [(x + 1, y), (x, y + 1)] {
-                if nx < side && ny < side {
-                    let j = ny * side + nx;
-                    b.add_sym(i, j, -1.0);
-                    b.add(i, i, 1.0);
-                    b.add(j, j, 1.0);
-                }
-            }
-        }
-        (b.build().unwrap(), points)
+        let points = (0..side * side)
+            .map(|i| {
+                let (x, y) = ((i % side) as f64, (i / side) as f64);
+                DVec3::new(x, y, 0.3 * x)
+            })
+            .collect();
+        (super::super::grid_laplacian(side, |_| 1.0), points)
     }
 
     #[test]

@@ -343,26 +343,10 @@ impl DiagonalDowndate<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::SparseBuilder;
     use super::*;
 
-    /// Grid graph Laplacian (side × side) plus `weight(i)` on the diagonal.
     fn grid(side: usize, weight: impl Fn(usize) -> f64) -> super::super::SparseMatrix {
-        let n = side * side;
-        let mut b = SparseBuilder::new(n);
-        for i in 0..n {
-            b.add(i, i, weight(i));
-            let (x, y) = (i % side, i / side);
-            for (nx, ny) in [(x + 1, y), (x, y + 1)] {
-                if nx < side && ny < side {
-                    let j = ny * side + nx;
-                    b.add_sym(i, j, -1.0);
-                    b.add(i, i, 1.0);
-                    b.add(j, j, 1.0);
-                }
-            }
-        }
-        b.build().unwrap()
+        super::super::grid_laplacian(side, weight)
     }
 
     /// Weights like the field's: large on a scattered tenth of the rows (τω up to 10⁴), zero

@@ -441,10 +441,17 @@ pub struct Analysis {
 
 impl Analysis {
     pub fn new<T: Scalar>(matrix: &SparseMatrix<T>) -> Result<Analysis, SolverError> {
+        Self::with_ordering(matrix, SymmetricOrdering::Amd)
+    }
+
+    fn with_ordering<T: Scalar>(
+        matrix: &SparseMatrix<T>,
+        ordering: SymmetricOrdering<'_, usize>,
+    ) -> Result<Analysis, SolverError> {
         let symbolic = factorize_symbolic_cholesky(
             matrix.pattern(),
             Side::Lower,
-            SymmetricOrdering::Amd,
+            ordering,
             Default::default(),
         )
         .map_err(|e| SolverError::Build(format!("{e:?}")))?;
@@ -475,17 +482,7 @@ impl Analysis {
             });
         }
         let perm = faer::perm::PermRef::new_checked(order, &inverse, n);
-        let symbolic = factorize_symbolic_cholesky(
-            matrix.pattern(),
-            Side::Lower,
-            SymmetricOrdering::Custom(perm),
-            Default::default(),
-        )
-        .map_err(|e| SolverError::Build(format!("{e:?}")))?;
-        Ok(Analysis {
-            symbolic: Arc::new(symbolic),
-            pattern: Arc::new((matrix.col_ptr.clone(), matrix.row_idx.clone())),
-        })
+        Self::with_ordering(matrix, SymmetricOrdering::Custom(perm))
     }
 
     /// The analysis of a system whose unknown `i` sits at `points[i]` (the pattern holding both
@@ -727,6 +724,26 @@ pub fn solve_constrained(
     Ok((0..n)
         .map(|i| value[i].unwrap_or_else(|| x[free_index[i]]))
         .collect())
+}
+
+/// The 5-point Laplacian of a side × side grid plus `weight(i)` on the diagonal, for tests.
+#[cfg(test)]
+pub(crate) fn grid_laplacian(side: usize, weight: impl Fn(usize) -> f64) -> SparseMatrix {
+    let n = side * side;
+    let mut b = SparseBuilder::new(n);
+    for i in 0..n {
+        b.add(i, i, weight(i));
+        let (x, y) = (i % side, i / side);
+        for (nx, ny) in [(x + 1, y), (x, y + 1)] {
+            if nx < side && ny < side {
+                let j = ny * side + nx;
+                b.add_sym(i, j, -1.0);
+                b.add(i, i, 1.0);
+                b.add(j, j, 1.0);
+            }
+        }
+    }
+    b.build().unwrap()
 }
 
 #[cfg(test)]
