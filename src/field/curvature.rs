@@ -44,33 +44,50 @@ pub fn eig2(a: f64, b: f64, c: f64) -> (f64, f64, f64) {
     (mean + r, mean - r, 0.5 * (2.0 * b).atan2(a - c))
 }
 
-/// One pass of neighbour averaging: each vertex's operator becomes the mean of itself and its
-/// one-ring (ambient 3x3 tensors; the face step projects them to the tangent plane).
-fn smooth_vertex_tensors(mesh: &TriMesh, vs: &[Sym3]) -> Vec<Sym3> {
-    (0..mesh.n_vertices())
+/// Every vertex's one ring (boundary vertices: both boundary neighbours), as compressed lists
+/// walked once: the smoothing passes then read indices in order instead of walking halfedges
+/// each time.
+fn one_rings(mesh: &TriMesh) -> (Vec<usize>, Vec<u32>) {
+    let rings: Vec<Vec<u32>> = (0..mesh.n_vertices())
         .into_par_iter()
         .map(|v| {
-            let mut s = vs[v];
-            let mut count = 1usize;
-            let mut add = |u: usize| {
-                for k in 0..6 {
-                    s[k] += vs[u][k];
-                }
-                count += 1;
-            };
-            // The one ring without collecting it (a vector per vertex and pass was half the
-            // curvature time at a million faces).
+            let mut ring = Vec::with_capacity(8);
             let mut last = None;
             for h in mesh.outgoing(v) {
-                add(mesh.to(h));
+                ring.push(mesh.to(h) as u32);
                 last = Some(h);
             }
             if mesh.is_boundary_vertex(v)
                 && let Some(last) = last
             {
-                add(mesh.from(mesh.prev(last)));
+                ring.push(mesh.from(mesh.prev(last)) as u32);
             }
-            s.map(|x| x / count as f64)
+            ring
+        })
+        .collect();
+    let mut ptr = Vec::with_capacity(rings.len() + 1);
+    ptr.push(0);
+    for r in &rings {
+        ptr.push(ptr.last().copied().unwrap_or(0) + r.len());
+    }
+    (ptr, rings.concat())
+}
+
+/// One pass of neighbour averaging: each vertex's operator becomes the mean of itself and its
+/// one-ring (ambient 3x3 tensors; the face step projects them to the tangent plane).
+fn smooth_vertex_tensors(ring_ptr: &[usize], ring: &[u32], vs: &[Sym3]) -> Vec<Sym3> {
+    (0..vs.len())
+        .into_par_iter()
+        .map(|v| {
+            let mut s = vs[v];
+            let neighbours = &ring[ring_ptr[v]..ring_ptr[v + 1]];
+            for &u in neighbours {
+                for k in 0..6 {
+                    s[k] += vs[u as usize][k];
+                }
+            }
+            let count = (neighbours.len() + 1) as f64;
+            s.map(|x| x / count)
         })
         .collect()
 }
@@ -136,8 +153,13 @@ impl Curvature {
                 }
             })
             .collect();
+        let (ring_ptr, ring) = if smoothing > 0 {
+            one_rings(mesh)
+        } else {
+            (Vec::new(), Vec::new())
+        };
         for _ in 0..smoothing {
-            vs = smooth_vertex_tensors(mesh, &vs);
+            vs = smooth_vertex_tensors(&ring_ptr, &ring, &vs);
         }
         // Eq. (3.2): S(t) = Σ ρ_jk S(e_jk) with ρ = 2/3 for the edges of t and 1/3 for edges
         // sharing one vertex — the mean of the three vertex operators.
