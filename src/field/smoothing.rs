@@ -499,9 +499,9 @@ fn smooth_releasing_by(inp: &SmoothInput, release: Release) -> Result<SmoothOutp
         // Fixed-matching system: dual Laplacian + diag(τω) + anchors. Its matrix does not depend
         // on the relaxed solution, only the right-hand side does (through the matchings), so it
         // is factored on a thread of its own beside the relaxed solve (at a million faces the
-        // factorization takes 1.5 s and uses mostly one core). Weights the cancellation releases
-        // afterwards lower a few diagonal entries: solved with by a low-rank correction of this
-        // factor (see `sparse::downdate`), not a second factorization.
+        // factorization takes 1.5 s and uses mostly one core). The weights the cancellation
+        // releases afterwards lower a few diagonal entries, which a low-rank correction of this
+        // factor takes (see `sparse::downdate`) instead of a second factorization.
         let factoring = scope.spawn(|| -> Result<(SpdSolver, SparseMatrix, f64), SolverError> {
             let matrix = fixed_matrix(&w, &anchor_fixed)?;
             let analysis = match inp.analysis {
