@@ -268,7 +268,8 @@ struct DualComponents {
 }
 
 impl DualComponents {
-    fn new(omega: &[f64], start: &[usize], adj: &[(u32, u32)]) -> DualComponents {
+    /// The components of the graph of `pattern` (symmetric, the diagonal stored).
+    fn new(omega: &[f64], pattern: &SparseMatrix) -> DualComponents {
         let nf = omega.len();
         let mut label = vec![u32::MAX; nf];
         let mut best = Vec::new();
@@ -280,15 +281,16 @@ impl DualComponents {
             let c = best.len() as u32;
             label[root] = c;
             stack.push(root);
-            let (mut top, mut top_w) = (root, -1.0);
+            // The largest ω, the smallest face among equals (so independent of the visit order).
+            let mut top = root;
             while let Some(f) = stack.pop() {
-                if omega[f] > top_w {
-                    (top, top_w) = (f, omega[f]);
+                if omega[f] > omega[top] || (omega[f] == omega[top] && f < top) {
+                    top = f;
                 }
-                for &(g, _) in &adj[start[f]..start[f + 1]] {
-                    if label[g as usize] == u32::MAX {
-                        label[g as usize] = c;
-                        stack.push(g as usize);
+                for &g in pattern.column_rows(f) {
+                    if label[g] == u32::MAX {
+                        label[g] = c;
+                        stack.push(g);
                     }
                 }
             }
@@ -453,9 +455,16 @@ fn smooth_releasing_by(inp: &SmoothInput, release: Release) -> Result<SmoothOutp
     let step = TAU / inp.n as f64;
     let tau = inp.tau.max(0.0);
     let w: Vec<f64> = inp.omega.iter().map(|o| tau * o.max(0.0)).collect();
-    let (start, adj) = dual_adjacency(tr, nf);
+    let built;
+    let layout = match inp.layout {
+        Some(layout) if layout.pattern.n() == nf && layout.matches(tr) => layout,
+        _ => {
+            built = DualLayout::new(tr, nf)?;
+            &built
+        }
+    };
     // Anchors of the fixed-matching system (before any weight is released).
-    let components = DualComponents::new(inp.omega, &start, &adj);
+    let components = DualComponents::new(inp.omega, &layout.pattern);
     let anchor_fixed = components.anchors(&w);
 
     // τ = 0 asks for the smoothest field. Pinning one face would make the relaxed solve a
@@ -479,14 +488,6 @@ fn smooth_releasing_by(inp: &SmoothInput, release: Release) -> Result<SmoothOutp
     let mut lap = |name: String, timings: &mut Vec<(String, f64)>| {
         timings.push((name, clock.elapsed().as_secs_f64()));
         clock = std::time::Instant::now();
-    };
-    let built;
-    let layout = match inp.layout {
-        Some(layout) if layout.pattern.n() == nf && layout.matches(tr) => layout,
-        _ => {
-            built = DualLayout::new(tr, nf)?;
-            &built
-        }
     };
     let fixed_matrix = |w: &[f64], is_anchor: &[bool]| {
         layout.fill(
@@ -530,6 +531,7 @@ fn smooth_releasing_by(inp: &SmoothInput, release: Release) -> Result<SmoothOutp
                 solution.x.iter().map(|z| z.arg() / inp.n as f64).collect()
             }
             Relaxation::SpanningForest => {
+                let (start, adj) = dual_adjacency(tr, nf);
                 let theta = relaxed_forest(inp, &w_relaxed, &anchor_relaxed, &start, &adj);
                 lap("smoothing: relaxed spanning forest".into(), &mut timings);
                 theta

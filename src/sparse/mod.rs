@@ -324,6 +324,10 @@ impl<T: Scalar> SparseMatrix<T> {
         }
         y
     }
+    /// The rows of column `j`'s stored entries, ascending.
+    pub fn column_rows(&self, j: usize) -> &[usize] {
+        &self.row_idx[self.col_ptr[j]..self.col_ptr[j + 1]]
+    }
     /// Entries as (row, col, value), column by column.
     pub fn entries(&self) -> Vec<(usize, usize, T)> {
         (0..self.n)
