@@ -24,8 +24,6 @@
 //!
 //! [`Analysis::geometric`]: super::Analysis::geometric
 
-use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
-
 use glam::DVec3;
 
 use super::{Scalar, SolverError, SparseMatrix};
@@ -46,8 +44,8 @@ struct Dissection<'a> {
     col_ptr: &'a [usize],
     row_idx: &'a [usize],
     /// Per unknown, the stamp of the last split that put it in an upper half.
-    upper: Vec<AtomicU32>,
-    stamp: AtomicU32,
+    upper: Vec<u32>,
+    stamp: u32,
 }
 
 /// The elimination order (position → unknown) of the graph of `matrix`'s pattern, which must hold
@@ -71,11 +69,11 @@ pub fn nested_dissection<T: Scalar>(
     if let Some(i) = points.iter().position(|p| !p.is_finite()) {
         return Err(SolverError::Build(format!("point {i} is not finite")));
     }
-    let d = Dissection {
+    let mut d = Dissection {
         col_ptr: &matrix.col_ptr,
         row_idx: &matrix.row_idx,
-        upper: (0..n).map(|_| AtomicU32::new(0)).collect(),
-        stamp: AtomicU32::new(0),
+        upper: vec![0; n],
+        stamp: 0,
     };
     let mut items: Vec<Item> = points
         .iter()
@@ -91,7 +89,7 @@ pub fn nested_dissection<T: Scalar>(
 
 impl Dissection<'_> {
     /// Orders `part` in place: [lower half without separator | upper half | separator].
-    fn order(&self, part: &mut [Item]) {
+    fn order(&mut self, part: &mut [Item]) {
         let n = part.len();
         if n <= LEAF {
             return;
@@ -126,11 +124,12 @@ impl Dissection<'_> {
 
     /// Stamps the upper half of `part` (split at its middle) and counts the lower half's unknowns
     /// with a neighbour there: the separator.
-    fn separator(&self, part: &[Item]) -> (u32, usize) {
+    fn separator(&mut self, part: &[Item]) -> (u32, usize) {
         let mid = part.len() / 2;
-        let stamp = self.stamp.fetch_add(1, Relaxed) + 1;
+        self.stamp += 1;
+        let stamp = self.stamp;
         for item in &part[mid..] {
-            self.upper[item.id as usize].store(stamp, Relaxed);
+            self.upper[item.id as usize] = stamp;
         }
         let size = part[..mid]
             .iter()
@@ -143,7 +142,7 @@ impl Dissection<'_> {
         let i = id as usize;
         self.row_idx[self.col_ptr[i]..self.col_ptr[i + 1]]
             .iter()
-            .any(|&j| self.upper[j].load(Relaxed) == stamp)
+            .any(|&j| self.upper[j] == stamp)
     }
 }
 
