@@ -3,7 +3,6 @@
 
 #![allow(clippy::needless_range_loop)]
 
-use std::f64::consts::TAU;
 use std::path::Path;
 
 use glam::DVec3;
@@ -13,38 +12,14 @@ use quadcover::param::{
     self, FieldRef, Lattice, ParamOptions, Parameterization, QuadCover, Rounding,
 };
 use quadcover::sparse::{SparseBuilder, solve_constrained};
+use seams::contract_error;
+
+#[path = "support/seams.rs"]
+mod seams;
 
 const MESHES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/meshes");
 
 /// R^k as the field module defines it (matching_matrix): [[c, s], [−s, c]], a = 2πk/N.
-fn rot(n: usize, k: usize, p: [f64; 2]) -> [f64; 2] {
-    let (s, c) = (TAU * k as f64 / n as f64).sin_cos();
-    [c * p[0] + s * p[1], -s * p[0] + c * p[1]]
-}
-
-/// Checks the output contract independently of the reported transitions: for every interior
-/// edge some R^r and one lattice translation relate the two faces' corner UVs at both endpoints.
-/// Returns the worst error over edges of the best r.
-fn contract_error(mesh: &TriMesh, uv: &[[f64; 2]], n: usize, lattice: Lattice) -> f64 {
-    let mut worst: f64 = 0.0;
-    for e in 0..mesh.n_edges() {
-        let (h0, Some(h1)) = mesh.edge_halfedges(e) else {
-            continue;
-        };
-        let (ia, ib, ja, jb) = (uv[h0], uv[mesh.next(h0)], uv[mesh.next(h1)], uv[h1]);
-        let best = (0..n)
-            .map(|r| {
-                let (pa, pb) = (rot(n, r, ia), rot(n, r, ib));
-                let ta = [ja[0] - pa[0], ja[1] - pa[1]];
-                let tb = [jb[0] - pb[0], jb[1] - pb[1]];
-                (ta[0] - tb[0]).hypot(ta[1] - tb[1]) + lattice.distance(ta)
-            })
-            .fold(f64::INFINITY, f64::min);
-        worst = worst.max(best);
-    }
-    worst
-}
-
 fn assert_finite(p: &Parameterization) {
     assert!(
         p.uv.iter().all(|x| x[0].is_finite() && x[1].is_finite()),

@@ -8,6 +8,7 @@ use std::time::Instant;
 use clap::Args;
 
 use super::CliError;
+use crate::edit::{Base, Edit, Settings};
 use crate::extract::{ExtractOptions, remesh_report};
 use crate::field::{Density, FieldParams, Symmetry, compute_field};
 use crate::load::load_mesh;
@@ -124,6 +125,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     print_table(&rows);
     if args.only.is_none() {
         remesh_comparison(args)?;
+        relax_comparison(args)?;
     }
     Ok(())
 }
@@ -279,6 +281,113 @@ fn stages(rows: &mut Vec<Row>, name: &str, mesh: &TriMesh) -> Result<(), CliErro
             let gaps = qg.round_gaps(mesh, &local)?;
             qg.global_uv(mesh, &local, &gaps)
         })?;
+    }
+    edit_stages(rows, name, mesh)
+}
+
+/// Relax only runs on meshes up to this size in the benchmark.
+const RELAX_MAX_TRIANGLES: usize = 150_000;
+
+/// Singularity editing (issue #13): the base (field with its system kept, QuadCover's analyses),
+/// one move of a singularity by a few edges and the re-solve that follows a drag's release
+/// (field re-solve + QuadCover), and `relax`.
+fn edit_stages(rows: &mut Vec<Row>, name: &str, mesh: &TriMesh) -> Result<(), CliError> {
+    let n = mesh.n_faces();
+    let arc = std::sync::Arc::new(mesh.clone());
+    let base = measure(rows, name, n, "edit: base (field kept + analyses)", || {
+        Base::for_mesh(arc, Settings::default())
+    })?;
+    let s0 = base.initial().clone();
+    let Some((&p, _)) = s0.singularities.iter().next() else {
+        return Ok(());
+    };
+    // A free interior vertex three rings away.
+    let mut ring = vec![p];
+    for _ in 0..3 {
+        ring = ring.iter().flat_map(|&v| mesh.one_ring(v)).collect();
+    }
+    let Some(&q) = ring
+        .iter()
+        .find(|&&v| !mesh.is_boundary_vertex(v) && !s0.singularities.contains_key(&v))
+    else {
+        return Ok(());
+    };
+    let edit = Edit::MoveSingularity {
+        from: base.file_vertex(p),
+        to: base.file_vertex(q),
+    };
+    let s1 = measure(rows, name, n, "edit: move (path, matchings)", || {
+        base.apply(&s0, &edit, &crate::edit::never)
+    })?;
+    let solved = measure(
+        rows,
+        name,
+        n,
+        "edit: re-solve after a move (release to UVs)",
+        || base.solve(&s1, &crate::edit::never),
+    )?;
+    for (stage, seconds) in &solved.timings {
+        rows.push(Row {
+            mesh: name.into(),
+            triangles: n,
+            stage: format!("  edit.{stage}"),
+            seconds: *seconds,
+            peak_mib: f64::NAN,
+        });
+    }
+    if n <= RELAX_MAX_TRIANGLES {
+        let relaxed = measure(rows, name, n, "edit: relax", || {
+            base.apply(&s0, &Edit::Relax, &crate::edit::never)
+        })?;
+        measure(rows, name, n, "edit: re-solve after relax", || {
+            base.solve(&relaxed, &crate::edit::never)
+        })?;
+    }
+    Ok(())
+}
+
+/// What `relax` does to the bunny's remesh at about 6500 vertices (N = 4, default settings).
+fn relax_comparison(args: &BenchArgs) -> Result<(), CliError> {
+    let loaded = load_mesh(&args.meshes.join("bunny.obj"))?;
+    let settings = Settings {
+        target_vertices: Some(6500),
+        ..Settings::default()
+    };
+    let base = Base::new(
+        std::sync::Arc::new(loaded.mesh),
+        loaded.report.original_vertex,
+        loaded.file_vertices,
+        settings,
+        &crate::edit::never,
+    )?;
+    println!();
+    println!(
+        "{:<22} {:>13} {:>10} {:>8} {:>10} {:>10} {:>10} {:>10}",
+        "bunny N=4, 6500 v.",
+        "singularities",
+        "curl",
+        "flipped",
+        "vertices",
+        "irregular",
+        "RSD edge",
+        "RSD angle"
+    );
+    let s0 = base.initial().clone();
+    let s1 = base.apply(&s0, &Edit::Relax, &crate::edit::never)?;
+    for (label, state) in [("before relax", &s0), ("after relax", &s1)] {
+        let solved = base.solve(state, &crate::edit::never)?;
+        let (_, q) = remesh_report(base.mesh(), &solved.param.uv, 4, &ExtractOptions::default())?;
+        println!(
+            "{:<22} {:>13} {:>10.2} {:>8} {:>10} {:>10} {:>8.1} % {:>8.1} %",
+            label,
+            state.singularities.len(),
+            solved.param.curl,
+            solved.param.flipped_faces,
+            q.vertices,
+            q.irregular_vertices,
+            100.0 * q.rsd_edge,
+            100.0 * q.rsd_angle
+        );
     }
     Ok(())
 }

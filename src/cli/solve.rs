@@ -13,10 +13,11 @@ use serde::Serialize;
 use std::io::Write;
 
 use super::CliError;
-use crate::field::{self, Density, FieldParams, Symmetry};
+use crate::edit::{self, Base, Project, Settings, project::RoundingSetting};
+use crate::field::{self, Symmetry};
 use crate::io;
 use crate::mesh::TriMesh;
-use crate::param::{self, ParamOptions, Rounding};
+use crate::param;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum RoundingArg {
@@ -26,11 +27,16 @@ pub enum RoundingArg {
 
 #[derive(Debug, Args)]
 pub struct SolveArgs {
-    /// Mesh file (OBJ, PLY, OFF or STL).
-    pub mesh: PathBuf,
-    /// Rotational symmetry: 2 (stripes), 4 (quads) or 6 (hexagons).
-    #[arg(long, default_value_t = 4)]
-    pub symmetry: u32,
+    /// Mesh file (OBJ, PLY, OFF or STL); optional with --project (which names its mesh).
+    #[arg(required_unless_present = "project")]
+    pub mesh: Option<PathBuf>,
+    /// Project file (settings and edits, see the README): its edits are replayed; flags given
+    /// here override its settings.
+    #[arg(long, conflicts_with = "field")]
+    pub project: Option<PathBuf>,
+    /// Rotational symmetry: 2 (stripes), 4 (quads) or 6 (hexagons) [default: 4].
+    #[arg(long)]
+    pub symmetry: Option<u32>,
     /// Target number of grid vertices (sets the grid size).
     #[arg(long, conflicts_with = "scale")]
     pub target_vertices: Option<usize>,
@@ -55,9 +61,15 @@ pub struct SolveArgs {
     /// Round gaps to 2Z² so that singularities land on integer grid points (N = 2, 4).
     #[arg(long)]
     pub pure_quad: bool,
-    /// Gap rounding: direct (thesis) or greedy (MIQ-style).
-    #[arg(long, value_enum, default_value = "direct")]
-    pub rounding: RoundingArg,
+    /// Gap rounding: direct (thesis) or greedy (MIQ-style) [default: direct].
+    #[arg(long, value_enum)]
+    pub rounding: Option<RoundingArg>,
+    /// Refuse singularity merges that would create index ±2/4 (hanging nodes; N = 4).
+    #[arg(long)]
+    pub no_half_merges: bool,
+    /// `relax` edits merge singularities closer than this many grid cells [default: 1].
+    #[arg(long)]
+    pub relax_merge_within: Option<f64>,
     /// Frame field JSON (`field::io` format) instead of computing one.
     #[arg(long)]
     pub field: Option<PathBuf>,
@@ -100,6 +112,14 @@ struct TimingsOut {
 }
 
 #[derive(Debug, Serialize)]
+struct SkippedOut {
+    /// 1-based position in the project's edit list.
+    position: usize,
+    edit: crate::edit::Edit,
+    reason: String,
+}
+
+#[derive(Debug, Serialize)]
 struct Report {
     vertices: usize,
     faces: usize,
@@ -109,10 +129,15 @@ struct Report {
     singularities: Vec<SingularityOut>,
     cut_paths: usize,
     flipped_faces: usize,
+    /// What the local step removed from the guiding field (thesis sec. 3.3), in grid cells.
+    curl: f64,
     seam_max_error: f64,
     conformal_distortion: DistortionOut,
     area_distortion: f64,
     timings_ms: TimingsOut,
+    /// Edits of the project replayed (0 without a project), and those skipped.
+    edits_applied: usize,
+    skipped_edits: Vec<SkippedOut>,
     #[serde(skip_serializing_if = "Option::is_none")]
     remesh: Option<RemeshQuality>,
 }
@@ -146,10 +171,59 @@ impl Drop for Progress {
     }
 }
 
+/// The settings a solve runs with: the project's (or the defaults), overridden by the flags
+/// given.
+fn settings_from(args: &SolveArgs, base: Option<&Settings>) -> Result<Settings, CliError> {
+    let mut s = base.cloned().unwrap_or_default();
+    if let Some(n) = args.symmetry {
+        s.symmetry = n;
+    }
+    if let Some(v) = args.target_vertices {
+        s.target_vertices = Some(v);
+        s.scale = None;
+    }
+    if let Some(h) = args.scale {
+        s.scale = Some(h);
+        s.target_vertices = None;
+    }
+    if let Some(t) = args.tau {
+        s.tau = t;
+    }
+    if let Some(r) = args.reliable_fraction {
+        s.reliable_fraction = r;
+    }
+    if let Some(c) = args.curvature_smoothing {
+        s.curvature_smoothing = c;
+    }
+    if let Some(c) = args.cancel_pairs_within {
+        s.cancel_pairs_within = c;
+    }
+    if args.pure_quad {
+        s.pure_quad = true;
+    }
+    if let Some(r) = args.rounding {
+        s.rounding = match r {
+            RoundingArg::Direct => RoundingSetting::Direct,
+            RoundingArg::Greedy => RoundingSetting::Greedy,
+        };
+    }
+    if args.no_half_merges {
+        s.no_half_merges = true;
+    }
+    if let Some(m) = args.relax_merge_within {
+        s.relax_merge_within = m;
+    }
+    s.validate().map_err(|e| -> CliError {
+        match (&args.project, base) {
+            (Some(p), Some(_)) => format!("{}: settings: {e}", p.display()).into(),
+            _ => e.into(),
+        }
+    })?;
+    Ok(s)
+}
+
 pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let total = Instant::now();
-    let symmetry = Symmetry::from_n(args.symmetry)?;
-    let n = args.symmetry as usize;
     if let Some(s) = args
         .scale
         .filter(|s| s.is_nan() || *s <= 0.0 || s.is_infinite())
@@ -159,34 +233,92 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     if args.target_vertices == Some(0) {
         return Err("--target-vertices must be positive".into());
     }
-    if args.pure_quad && n == 6 {
+    let project = match &args.project {
+        Some(path) => Some(Project::load(path)?),
+        None => None,
+    };
+    let settings = settings_from(args, project.as_ref().map(|p| &p.settings))?;
+    let symmetry = Symmetry::from_n(settings.symmetry)?;
+    let n = settings.symmetry as usize;
+    if settings.pure_quad && n == 6 {
         return Err("--pure-quad needs --symmetry 2 or 4".into());
     }
-    eprintln!("quadcover solve {} (N = {n})", args.mesh.display());
+    let mesh_path = match (&args.mesh, &project, &args.project) {
+        (Some(m), _, _) => m.clone(),
+        (None, Some(p), Some(pp)) => p.mesh_path(pp),
+        _ => return Err("no mesh given".into()),
+    };
+    eprintln!("quadcover solve {} (N = {n})", mesh_path.display());
     let bar = Progress::new();
     bar.start("load");
     let t = Instant::now();
-    let soup = io::read_mesh(&args.mesh)?;
+    let soup = io::read_mesh(&mesh_path)?;
     let (mesh, repair) =
-        TriMesh::from_soup(&soup).map_err(|e| format!("{}: {e}", args.mesh.display()))?;
+        TriMesh::from_soup(&soup).map_err(|e| format!("{}: {e}", mesh_path.display()))?;
+    if let (Some(project), Some(pp)) = (&project, &args.project) {
+        // The hash names the project's own mesh; another one given on the command line is the
+        // user's choice.
+        if args.mesh.is_none() {
+            let bytes =
+                std::fs::read(&mesh_path).map_err(|e| format!("{}: {e}", mesh_path.display()))?;
+            project.check_mesh(pp, &bytes)?;
+        }
+        project.check_vertices(pp, soup.positions.len())?;
+    }
     bar.done("load", t);
-    let density = match (args.scale, args.target_vertices) {
-        (Some(s), _) => Some(Density::EdgeLength(s)),
-        (None, Some(v)) => Some(Density::TargetVertices(v)),
-        _ => None,
-    };
     let mut timings = TimingsOut::default();
-    let opts = ParamOptions {
-        rounding: match args.rounding {
-            RoundingArg::Direct => Rounding::Direct,
-            RoundingArg::Greedy => Rounding::Greedy,
-        },
-        pure_quad: args.pure_quad,
-    };
+    let opts = settings.param_options();
+    let mut edits_applied = 0;
+    let mut skipped_edits = Vec::new();
     // With a computed field, QuadCover's factorizations start as soon as its matchings are final.
     let mut prepared = None;
-    let field = match &args.field {
-        Some(path) => {
+    let mut solved = None;
+    let field = match (&args.field, &project) {
+        (_, Some(project)) => {
+            bar.start("frame field and QuadCover's analyses, then the edits");
+            let t = Instant::now();
+            let base = Base::new(
+                std::sync::Arc::new(mesh.clone()),
+                repair.original_vertex.clone(),
+                soup.positions.len(),
+                settings.clone(),
+                &edit::never,
+            )?;
+            for (name, secs) in &base.field().timings {
+                if name.contains("curvature") {
+                    timings.curvature += secs * 1e3;
+                } else {
+                    timings.smooth += secs * 1e3;
+                }
+            }
+            bar.done("field", t);
+            let t = Instant::now();
+            let replay = base.replay(&project.edits, &edit::never)?;
+            for s in &replay.skipped {
+                bar.line(format!(
+                    "  skipped edit {} ({}): {}",
+                    s.position,
+                    s.edit.label(),
+                    s.reason
+                ));
+            }
+            edits_applied = project.edits.len() - replay.skipped.len();
+            skipped_edits = replay
+                .skipped
+                .iter()
+                .map(|s| SkippedOut {
+                    position: s.position,
+                    edit: s.edit.clone(),
+                    reason: s.reason.clone(),
+                })
+                .collect();
+            bar.done("edits", t);
+            let s = base.solve(replay.last(), &edit::never)?;
+            let field = s.field.clone();
+            solved = Some(s.param);
+            field
+        }
+        (Some(path), None) => {
             let t = Instant::now();
             let text =
                 std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -201,7 +333,8 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 .into());
             }
             f.validate(&mesh)?;
-            if let Some(d) = density {
+            if args.scale.is_some() || args.target_vertices.is_some() {
+                let d = settings.field_params().density;
                 // Rescale so that the mean frame row length is 1/h.
                 let h = field::density::grid_size(&mesh, &d, symmetry, &vec![1.0; mesh.n_faces()])?;
                 let mean = f
@@ -222,26 +355,8 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             timings.smooth = bar.done("field", t);
             f
         }
-        None => {
-            let mut params = FieldParams {
-                symmetry,
-                ..Default::default()
-            };
-            if let Some(tau) = args.tau {
-                params.tau = tau;
-            }
-            if let Some(r) = args.reliable_fraction {
-                params.reliable_fraction = r;
-            }
-            if let Some(c) = args.curvature_smoothing {
-                params.curvature_smoothing = c;
-            }
-            if let Some(c) = args.cancel_pairs_within {
-                params.cancel_pairs_within = c;
-            }
-            if let Some(d) = density {
-                params.density = d;
-            }
+        (None, None) => {
+            let params = settings.field_params();
             bar.start("frame field, then the QuadCover factorizations beside its last solve");
             let (fr, qc) = param::pipeline::field_then_quadcover(&mesh, &params, n, &opts)?;
             prepared = Some(qc);
@@ -261,11 +376,16 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         }
     };
     bar.start("QuadCover: cut graph, local and global step");
-    let qc = match prepared {
-        Some(qc) => qc,
-        None => param::QuadCover::new(&mesh, n, &field.matchings, opts)?,
+    let p = match solved {
+        Some(p) => p,
+        None => {
+            let qc = match prepared {
+                Some(qc) => qc,
+                None => param::QuadCover::new(&mesh, n, &field.matchings, opts)?,
+            };
+            qc.solve(&mesh, &field.frames)?
+        }
     };
-    let p = qc.solve(&mesh, &field.frames)?;
     timings.cut = p.timings.cut_ms;
     timings.local = p.timings.local_ms;
     timings.global = p.timings.global_ms;
@@ -361,6 +481,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 .collect(),
             cut_paths: p.cut_paths.len(),
             flipped_faces: p.flipped_faces,
+            curl: p.curl,
             seam_max_error: p.seam_max_error,
             conformal_distortion: DistortionOut {
                 mean: p.conformal_distortion.mean,
@@ -368,6 +489,8 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             },
             area_distortion: p.area_distortion,
             timings_ms: timings,
+            edits_applied,
+            skipped_edits,
             remesh: remesh.clone(),
         };
         let json = serde_json::to_string_pretty(&report)?;

@@ -120,14 +120,14 @@ fn close_pairs(
 
 /// Dijkstra buffers kept across searches: each search touches only the vertices within its
 /// length bound, and only those are reset (allocating per pair cost more than the searches).
-struct PathSearch {
+pub(crate) struct PathSearch {
     dist: Vec<f64>,
     via: Vec<usize>,
     touched: Vec<usize>,
 }
 
 impl PathSearch {
-    fn new(nv: usize) -> PathSearch {
+    pub(crate) fn new(nv: usize) -> PathSearch {
         PathSearch {
             dist: vec![f64::INFINITY; nv],
             via: vec![usize::MAX; nv],
@@ -137,7 +137,7 @@ impl PathSearch {
 
     /// Halfedges of a shortest edge path from `a` to `b` through interior vertices and interior
     /// edges (matchings live on interior edges only), no longer than `max_length`.
-    fn shortest_interior_path(
+    pub(crate) fn shortest_interior_path(
         &mut self,
         mesh: &TriMesh,
         a: usize,
@@ -194,7 +194,7 @@ impl PathSearch {
 
 /// Moves the singularity of index k/N at the start of `path` to its end: on each edge, the
 /// matching from the face right of the path to the face left of it changes by −s·k.
-fn apply(mesh: &TriMesh, r: &mut [i64], path: &[usize], k: i32, s: i64) {
+pub(crate) fn apply(mesh: &TriMesh, r: &mut [i64], path: &[usize], k: i32, s: i64) {
     for &h in path {
         let e = mesh.edge(h);
         let first_face = mesh.face_of(mesh.edge_halfedges(e).0);

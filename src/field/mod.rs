@@ -18,7 +18,7 @@
 //! In angles (θ = angle of U in the face basis, κ_ij the transport angle, [`transport`]):
 //! θ_j ≈ θ_i + κ_ij + 2π r_ij / N.
 
-mod cancel;
+pub(crate) mod cancel;
 pub mod classify;
 pub mod curvature;
 pub mod density;
@@ -192,6 +192,10 @@ pub struct FieldParams {
     /// as is). The default 5 halves the singularities of curvature fields on scanned meshes
     /// (bunny, N = 4: 110 -> 63; remesh irregular vertices 49 -> 21).
     pub curvature_smoothing: usize,
+    /// Keep the factored fixed-matching system in [`FieldResult::system`] (the edit model
+    /// re-solves with it; it costs the factor's memory, so only asked for there).
+    #[serde(skip)]
+    pub keep_system: bool,
 }
 
 impl Default for FieldParams {
@@ -207,6 +211,7 @@ impl Default for FieldParams {
             scale: ScaleFunction::Uniform,
             curvature_smoothing: 5,
             cancel_pairs_within: 1.0,
+            keep_system: false,
         }
     }
 }
@@ -235,6 +240,11 @@ pub struct FieldResult {
     pub passes: usize,
     /// (stage, seconds).
     pub timings: Vec<(String, f64)>,
+    /// Unreduced integer turns per edge (first face to second; 0 on boundary edges): the
+    /// matchings before reduction mod N, from which indices follow combinatorially.
+    pub turns: Vec<i64>,
+    /// The factored fixed-matching system, with [`FieldParams::keep_system`].
+    pub system: Option<std::sync::Arc<smoothing::FixedSystem>>,
 }
 
 /// Computes a frame field: curvature → classification/reliability → smoothing → density →
@@ -353,6 +363,7 @@ fn field_with_analysis<T: Send>(
         adjust_turns: (radius > 0.0).then_some(&cancel as &smoothing::AdjustTurns),
         analysis: Some(analysis),
         layout: Some(&layout),
+        keep_system: params.keep_system,
     })?;
     timings.extend(sm.timings.iter().cloned());
     clock = Instant::now();
@@ -390,6 +401,8 @@ fn field_with_analysis<T: Send>(
         e_align: sm.e_align,
         passes: sm.passes,
         timings,
+        turns: sm.r,
+        system: sm.system,
     };
     Ok((result, handed_on))
 }

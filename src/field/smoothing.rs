@@ -59,6 +59,8 @@ pub struct SmoothOutput {
     /// Wall-clock seconds per stage (assembly, relaxed solve, cancellation, waiting for the
     /// analysis, fixed-matching factorization, rounding passes).
     pub timings: Vec<(String, f64)>,
+    /// The factored fixed-matching system, when [`SmoothInput::keep_system`] asked for it.
+    pub system: Option<std::sync::Arc<FixedSystem>>,
 }
 
 /// Input of [`smooth`].
@@ -82,6 +84,9 @@ pub struct SmoothInput<'a> {
     /// The layout of the dual systems if built elsewhere ([`DualLayout::from_mesh`] of this
     /// mesh); built here otherwise.
     pub layout: Option<&'a DualLayout>,
+    /// Keep the factored fixed-matching system in [`SmoothOutput::system`], for re-solves with
+    /// other matchings and released weights (singularity edits, sec. 3.3).
+    pub keep_system: bool,
 }
 
 /// Where a value of a dual system comes from: the diagonal of a column, or one side of an edge's
@@ -547,6 +552,7 @@ fn smooth_releasing_by(inp: &SmoothInput, release: Release) -> Result<SmoothOutp
         // their alignment weight (a moved singularity's path through trusted faces would
         // otherwise leave a seam in the field). The changed edges stay pinned in the rounding
         // passes below, which would otherwise be free to round the pair back.
+        let w_before = &w;
         let mut w = w.clone();
         let mut pinned = vec![false; r.len()];
         let mut released = Vec::new();
@@ -586,7 +592,8 @@ fn smooth_releasing_by(inp: &SmoothInput, release: Release) -> Result<SmoothOutp
             ReleasedSystem::Unchanged
         } else if release == Release::Downdate
             && is_anchor == anchor_fixed
-            && let Some(system) = ReleasedSystem::downdate(&solver, matrix_before, &released)
+            && let Some(system) =
+                ReleasedSystem::downdate(&solver, matrix_before.clone(), &released)
         {
             system
         } else {
@@ -639,16 +646,151 @@ fn smooth_releasing_by(inp: &SmoothInput, release: Release) -> Result<SmoothOutp
             &mut timings,
         );
         let (e_smooth, e_align) = energies(tr, step, &theta, &r, inp.omega, &target);
+        drop(released_system);
+        let anchors = (0..nf).filter(|&i| is_anchor[i]).collect();
+        let system = if inp.keep_system {
+            Some(std::sync::Arc::new(FixedSystem {
+                relaxed,
+                solver,
+                matrix_before,
+                components,
+                anchor_fixed: anchor_fixed.clone(),
+                w_before: w_before.clone(),
+                released_by_cancellation: released.iter().map(|&(f, _)| f).collect(),
+                target,
+                step,
+            }))
+        } else {
+            None
+        };
         Ok(SmoothOutput {
             theta,
             r,
             e_smooth,
             e_align,
             passes,
-            anchors: (0..nf).filter(|&i| is_anchor[i]).collect(),
+            anchors,
             timings,
+            system,
         })
     })
+}
+
+/// The factored fixed-matching system of a smoothing (dual Laplacian + τω + anchors, before the
+/// cancellation released any weight), with the alignment targets: re-solves the angles for
+/// other integer turns and further released faces (thesis sec. 3.3: after moving singularities,
+/// "minimize the energy E again for the unknowns α_i, holding the matchings fix"). The released
+/// weights are taken by a low-rank correction of the factor, as in the smoothing itself.
+pub struct FixedSystem {
+    solver: SpdSolver,
+    matrix_before: SparseMatrix,
+    components: DualComponents,
+    anchor_fixed: Vec<bool>,
+    /// The relaxed solution's angles: an anchor face is held there.
+    relaxed: Vec<f64>,
+    w_before: Vec<f64>,
+    released_by_cancellation: Vec<usize>,
+    target: Vec<f64>,
+    step: f64,
+}
+
+impl std::fmt::Debug for FixedSystem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FixedSystem")
+            .field("faces", &self.target.len())
+            .field(
+                "released_by_cancellation",
+                &self.released_by_cancellation.len(),
+            )
+            .finish()
+    }
+}
+
+impl FixedSystem {
+    /// Alignment target per face (the representative of the curvature direction nearest the
+    /// relaxed solution).
+    pub fn target(&self) -> &[f64] {
+        &self.target
+    }
+
+    /// Weight τω_i per face before any release.
+    pub fn weights(&self) -> &[f64] {
+        &self.w_before
+    }
+
+    /// Faces whose weight the smoothing's pair cancellation released.
+    pub fn released_by_cancellation(&self) -> &[usize] {
+        &self.released_by_cancellation
+    }
+
+    /// Angles minimising E_smooth + τE_align for the turns `r` (per edge, first face to second)
+    /// with the weights of the cancellation's and of `released` faces set to 0. A pure function
+    /// of its arguments: the same inputs give bit-identical angles.
+    pub fn solve(
+        &self,
+        tr: &EdgeTransport,
+        r: &[i64],
+        released: &[usize],
+    ) -> Result<Vec<f64>, SolverError> {
+        let nf = self.target.len();
+        if r.len() != tr.faces.len() {
+            return Err(SolverError::Build(format!(
+                "{} turns for {} edges",
+                r.len(),
+                tr.faces.len()
+            )));
+        }
+        let mut w = self.w_before.clone();
+        let mut drop_weights = Vec::new();
+        for &f in self.released_by_cancellation.iter().chain(released) {
+            if f >= nf {
+                return Err(SolverError::Build(format!(
+                    "released face {f} out of range"
+                )));
+            }
+            if w[f] != 0.0 {
+                drop_weights.push((f, w[f]));
+                w[f] = 0.0;
+            }
+        }
+        let is_anchor = self.components.anchors(&w);
+        let system = if drop_weights.is_empty() {
+            ReleasedSystem::Unchanged
+        } else if is_anchor == self.anchor_fixed
+            && let Some(system) =
+                ReleasedSystem::downdate(&self.solver, self.matrix_before.clone(), &drop_weights)
+        {
+            system
+        } else {
+            let mut values = self.matrix_before.values().to_vec();
+            for f in 0..nf {
+                let before = self.w_before[f] + if self.anchor_fixed[f] { 1.0 } else { 0.0 };
+                let after = w[f] + if is_anchor[f] { 1.0 } else { 0.0 };
+                if before != after {
+                    let p = self.matrix_before.position(f, f).ok_or_else(|| {
+                        SolverError::Build("fixed-matching diagonal entry missing".into())
+                    })?;
+                    values[p] += after - before;
+                }
+            }
+            let matrix = self.matrix_before.with_values(values)?;
+            ReleasedSystem::Refactored(SpdSolver::with_analysis(
+                self.solver.analysis().clone(),
+                &matrix,
+            )?)
+        };
+        let mut rhs: Vec<f64> = (0..nf)
+            .map(|i| w[i] * self.target[i] + if is_anchor[i] { self.relaxed[i] } else { 0.0 })
+            .collect();
+        for (e, f) in tr.faces.iter().enumerate() {
+            if f[1] != NO_FACE {
+                let c = tr.kappa[e] + self.step * r[e] as f64;
+                rhs[f[0] as usize] -= c;
+                rhs[f[1] as usize] += c;
+            }
+        }
+        system.solve(&self.solver, &rhs)
+    }
 }
 
 /// The fixed-matching system after the cancellation released alignment weights: the factor of
@@ -927,6 +1069,7 @@ mod tests {
             adjust_turns: Some(&adjust),
             analysis: None,
             layout: None,
+            keep_system: true,
         };
         let down = smooth_releasing_by(&input, Release::Downdate).unwrap();
         let refactored = smooth_releasing_by(&input, Release::Refactor).unwrap();
@@ -942,6 +1085,14 @@ mod tests {
             .zip(&refactored.theta)
             .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
         assert!(diff < 1e-9, "angles differ by {diff:e}");
+        // The kept system re-solves the same turns to the same angles (the edit model's base).
+        let system = down.system.as_ref().expect("kept");
+        let again = system.solve(&tr, &down.r, &[]).unwrap();
+        let diff = again
+            .iter()
+            .zip(&down.theta)
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        assert!(diff < 1e-9, "re-solve differs by {diff:e}");
         // The release mattered: without it the angles are others.
         let kept = smooth_releasing_by(
             &SmoothInput {

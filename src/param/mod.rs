@@ -113,6 +113,25 @@ pub struct Distortion {
     pub p99: f64,
 }
 
+impl LocalSolution {
+    /// Σ_f A_f (‖U_f − U*_f‖² + ‖V_f − V*_f‖²): the part of `frames` the local step removed.
+    pub fn curl(&self, mesh: &TriMesh, frames: &[[DVec3; 2]]) -> f64 {
+        removed(mesh, frames, &self.curl_free)
+    }
+}
+
+/// Σ_f A_f (‖U_f − U*_f‖² + ‖V_f − V*_f‖²).
+fn removed(mesh: &TriMesh, frames: &[[DVec3; 2]], curl_free: &[[DVec3; 2]]) -> f64 {
+    frames
+        .iter()
+        .zip(curl_free)
+        .enumerate()
+        .map(|(f, (x, y))| {
+            mesh.face_area(f) * ((x[0] - y[0]).length_squared() + (x[1] - y[1]).length_squared())
+        })
+        .sum()
+}
+
 /// The local step's result: curl*-free frames, their integral on M \ G and the measured gaps.
 #[derive(Clone, Debug)]
 pub struct LocalSolution {
@@ -143,6 +162,10 @@ pub struct Parameterization {
     /// Per edge (identity on boundary edges and away from the cut graph).
     pub transitions: Vec<EdgeTransition>,
     pub flipped_faces: usize,
+    /// The curl of the guiding field: what the local step removes, Σ_f A_f ‖X_f − X*_f‖² over
+    /// both frame rows (X* the curl*-free frames), in grid cells (thesis sec. 3.3 measures
+    /// singularity placement by it).
+    pub curl: f64,
     pub seam_max_error: f64,
     pub conformal_distortion: Distortion,
     pub area_distortion: f64,
@@ -374,6 +397,7 @@ impl QuadCover {
         let uv = self.global_uv(mesh, &local, &gaps)?;
         let global_ms = ms(t);
         let mut p = self.finish(mesh, frames, uv, local.gaps.clone(), gaps);
+        p.curl = local.curl(mesh, frames);
         p.timings = StageTimings {
             cut_ms: self.timings.cut_ms,
             local_ms: self.timings.local_ms + local.local_ms,
@@ -423,6 +447,7 @@ impl QuadCover {
                 })
                 .collect(),
             flipped_faces: q.flipped,
+            curl: 0.0,
             seam_max_error,
             conformal_distortion: Distortion {
                 mean: q.conformal_mean,
@@ -432,6 +457,32 @@ impl QuadCover {
             timings: StageTimings::default(),
         }
     }
+}
+
+/// The curl of a guiding field ([`Parameterization::curl`]) without the global step: the cut
+/// graph and the local step's factorization only (relaxation compares singularity placements
+/// by it, thesis sec. 3.3).
+pub fn curl(
+    mesh: &TriMesh,
+    symmetry: usize,
+    matchings: &[i32],
+    frames: &[[DVec3; 2]],
+    analysis: Option<&ParamAnalysis>,
+) -> Result<f64, ParamError> {
+    if matchings.len() != mesh.n_edges() || frames.len() != mesh.n_faces() {
+        return Err(ParamError::InvalidInput(format!(
+            "{} matchings and {} frames for {} edges and {} faces",
+            matchings.len(),
+            frames.len(),
+            mesh.n_edges(),
+            mesh.n_faces()
+        )));
+    }
+    let rots = Rots::new(symmetry);
+    let cut = CutGraph::new(mesh, &rots, matchings);
+    let local = LocalSystem::new(mesh, &cut, &rots, analysis.map(|a| &a.local))?;
+    let curl_free = local.solve(mesh, &cut, &rots, frames)?;
+    Ok(removed(mesh, frames, &curl_free))
 }
 
 /// One-shot QuadCover: prepare and solve.

@@ -1,0 +1,494 @@
+//! [`Base`]: what depends on the mesh and the settings only, and the pure functions from edit
+//! lists to states and from states to fields and parameterizations.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::time::Instant;
+
+use super::moves::{MergeRules, PlannedMove, plan_move, released_faces, turn_index};
+use super::{Cancel, Edit, EditError, Settings};
+use crate::field::cancel::{PathSearch, apply};
+use crate::field::index::indices_from_angles;
+use crate::field::smoothing::energies;
+use crate::field::transport::{EdgeTransport, FaceBases};
+use crate::field::{
+    FieldResult, FrameField, IndexReport, Singularity, compute_field, frames_from_angles,
+    reduce_matchings,
+};
+use crate::mesh::TriMesh;
+use crate::param::{ParamAnalysis, Parameterization, QuadCover};
+
+/// The combinatorial state after some edits: integer turns and released faces. The
+/// singularities follow from the turns alone ([`turn_index`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EditState {
+    /// Unreduced turns per edge (first face to second; 0 on boundary edges).
+    pub turns: Vec<i64>,
+    /// Faces whose alignment weight edits released, sorted, without repeats.
+    pub released: Vec<usize>,
+    /// Interior vertices (mesh indices) with non-zero index k/N, by vertex.
+    pub singularities: BTreeMap<usize, i32>,
+}
+
+impl EditState {
+    /// Singularities as (mesh vertex, k), by vertex.
+    pub fn singularity_list(&self) -> Vec<Singularity> {
+        self.singularities
+            .iter()
+            .map(|(&vertex, &k)| Singularity { vertex, k })
+            .collect()
+    }
+}
+
+/// An edit that replay skipped, and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Skipped {
+    /// 1-based position in the edit list.
+    pub position: usize,
+    pub edit: Edit,
+    pub reason: String,
+}
+
+/// The states after each edit of a list (`states[0]` before any; a skipped edit repeats the
+/// state before it) and the edits skipped.
+#[derive(Clone, Debug)]
+pub struct Replay {
+    pub states: Vec<EditState>,
+    pub skipped: Vec<Skipped>,
+}
+
+impl Replay {
+    pub fn last(&self) -> &EditState {
+        self.states.last().expect("a replay has its initial state")
+    }
+}
+
+/// The field and parameterization of a state.
+#[derive(Clone, Debug)]
+pub struct Solved {
+    pub field: FrameField,
+    /// Angle of U per face in the face basis.
+    pub theta: Vec<f64>,
+    /// Indices from the solved angles (equal to the state's when the field is smooth).
+    pub indices: IndexReport,
+    pub param: Parameterization,
+    pub e_smooth: f64,
+    pub e_align: f64,
+    /// (stage, seconds).
+    pub timings: Vec<(String, f64)>,
+}
+
+/// What a move from `from` to `to` would do (for the editor's live preview).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MovePreview {
+    /// Mesh vertices of the edge path (empty when there is none).
+    pub path: Vec<usize>,
+    /// The index numerator k at `to` afterwards (`None`: the singularity leaves through the
+    /// boundary), or why the move is refused.
+    pub result: Result<Option<i32>, String>,
+}
+
+/// Everything that depends on (mesh, settings) only.
+pub struct Base {
+    mesh: Arc<TriMesh>,
+    settings: Settings,
+    to_file: Vec<u32>,
+    from_file: Vec<u32>,
+    field: FieldResult,
+    bases: FaceBases,
+    tr: EdgeTransport,
+    defects: Vec<f64>,
+    analysis: Arc<ParamAnalysis>,
+    initial: EditState,
+}
+
+impl std::fmt::Debug for Base {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Base")
+            .field("faces", &self.mesh.n_faces())
+            .field("settings", &self.settings)
+            .finish()
+    }
+}
+
+const UNMAPPED: u32 = u32::MAX;
+
+impl Base {
+    /// Computes the field (keeping its fixed-matching system) and QuadCover's analyses, side by
+    /// side. `to_file[v]` is mesh vertex v's index in the file (`RepairReport::original_vertex`;
+    /// the identity for generated meshes), `file_vertices` the file's vertex count.
+    pub fn new(
+        mesh: Arc<TriMesh>,
+        to_file: Vec<u32>,
+        file_vertices: usize,
+        settings: Settings,
+        cancel: Cancel,
+    ) -> Result<Base, EditError> {
+        settings.validate().map_err(EditError::Invalid)?;
+        if to_file.len() != mesh.n_vertices()
+            || to_file.iter().any(|&v| v as usize >= file_vertices)
+        {
+            return Err(EditError::Invalid(
+                "the vertex map does not fit the mesh".into(),
+            ));
+        }
+        let mut from_file = vec![UNMAPPED; file_vertices];
+        for (v, &f) in to_file.iter().enumerate() {
+            from_file[f as usize] = v as u32;
+        }
+        let params = crate::field::FieldParams {
+            keep_system: true,
+            ..settings.field_params()
+        };
+        let (field, analysis) = std::thread::scope(|scope| {
+            let analysis = scope.spawn(|| ParamAnalysis::new(&mesh));
+            let field = compute_field(&mesh, &params);
+            let analysis = analysis
+                .join()
+                .map_err(|_| EditError::Param("the analysis thread panicked".into()))?;
+            Ok::<_, EditError>((
+                field.map_err(|e| EditError::Field(e.to_string()))?,
+                analysis.map_err(|e| EditError::Param(e.to_string()))?,
+            ))
+        })?;
+        if cancel() {
+            return Err(EditError::Cancelled);
+        }
+        let bases = FaceBases::new(&mesh);
+        let tr = EdgeTransport::new(&mesh, &bases);
+        let defects = mesh.angle_defects();
+        let n = settings.symmetry;
+        let singularities = (0..mesh.n_vertices())
+            .filter_map(|v| {
+                turn_index(&mesh, &tr, defects[v], v, n, &field.turns)
+                    .filter(|&k| k != 0)
+                    .map(|k| (v, k))
+            })
+            .collect();
+        let initial = EditState {
+            turns: field.turns.clone(),
+            released: Vec::new(),
+            singularities,
+        };
+        Ok(Base {
+            mesh,
+            settings,
+            to_file,
+            from_file,
+            field,
+            bases,
+            tr,
+            defects,
+            analysis: Arc::new(analysis),
+            initial,
+        })
+    }
+
+    /// [`Base::new`] for a mesh whose vertices are the file's (generated meshes, tests).
+    pub fn for_mesh(mesh: Arc<TriMesh>, settings: Settings) -> Result<Base, EditError> {
+        let nv = mesh.n_vertices();
+        Base::new(mesh, (0..nv as u32).collect(), nv, settings, &super::never)
+    }
+
+    pub fn mesh(&self) -> &Arc<TriMesh> {
+        &self.mesh
+    }
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+    /// The computed field before any edit.
+    pub fn field(&self) -> &FieldResult {
+        &self.field
+    }
+    pub fn grid_size(&self) -> f64 {
+        self.field.grid_size
+    }
+    pub(crate) fn transport(&self) -> &EdgeTransport {
+        &self.tr
+    }
+    pub fn analysis(&self) -> &Arc<ParamAnalysis> {
+        &self.analysis
+    }
+    /// The state before any edit.
+    pub fn initial(&self) -> &EditState {
+        &self.initial
+    }
+    /// The file's index of mesh vertex v.
+    pub fn file_vertex(&self, v: usize) -> usize {
+        self.to_file[v] as usize
+    }
+    /// The mesh vertex of file vertex i (`None` for vertices the mesh dropped or out of range).
+    pub fn mesh_vertex(&self, i: usize) -> Option<usize> {
+        self.from_file
+            .get(i)
+            .filter(|&&v| v != UNMAPPED)
+            .map(|&v| v as usize)
+    }
+    pub(crate) fn rules(&self) -> MergeRules {
+        MergeRules {
+            n: self.settings.symmetry,
+            no_half_merges: self.settings.no_half_merges,
+        }
+    }
+
+    fn file_to_mesh(&self, i: usize, name: &str) -> Result<usize, String> {
+        if i >= self.from_file.len() {
+            return Err(format!(
+                "{name} = {i} is out of range (the mesh file has {} vertices)",
+                self.from_file.len()
+            ));
+        }
+        self.mesh_vertex(i)
+            .ok_or_else(|| format!("{name} = {i} is not on the mesh (no face uses it)"))
+    }
+
+    /// Plans a move between mesh vertices on a state.
+    pub(crate) fn plan(
+        &self,
+        state: &EditState,
+        search: &mut PathSearch,
+        p: usize,
+        q: usize,
+    ) -> Result<PlannedMove, String> {
+        let fp = self.file_vertex(p);
+        if self.mesh.is_boundary_vertex(p) {
+            return Err(format!(
+                "vertex {fp} is on the boundary, where vertices carry no index"
+            ));
+        }
+        let Some(&k_p) = state.singularities.get(&p) else {
+            return Err(format!("vertex {fp} is not a singularity"));
+        };
+        let k_q = state.singularities.get(&q).copied().unwrap_or(0);
+        plan_move(
+            &self.mesh,
+            &self.tr,
+            &self.defects,
+            &state.turns,
+            search,
+            p,
+            q,
+            k_p,
+            k_q,
+            self.rules(),
+        )
+        .map_err(|why| {
+            format!(
+                "moving the singularity at {fp} to {} is refused: {why}",
+                self.file_vertex(q)
+            )
+        })
+    }
+
+    /// The state after a planned move: turns changed along the path, its faces released, the
+    /// indices of p and q updated (and checked against the turns).
+    pub(crate) fn commit(&self, state: &EditState, mv: &PlannedMove) -> EditState {
+        let mut next = state.clone();
+        let p = self.mesh.from(mv.path[0]);
+        let q = self.mesh.to(*mv.path.last().expect("a path has an edge"));
+        let k_p = next.singularities.remove(&p).unwrap_or(0);
+        apply(&self.mesh, &mut next.turns, &mv.path, k_p, mv.sign);
+        match mv.at_q {
+            Some(0) => {
+                next.singularities.remove(&q);
+            }
+            Some(k) => {
+                next.singularities.insert(q, k);
+            }
+            None => {}
+        }
+        next.released.extend(released_faces(&self.mesh, &mv.path));
+        next.released.sort_unstable();
+        next.released.dedup();
+        debug_assert_eq!(
+            turn_index(
+                &self.mesh,
+                &self.tr,
+                self.defects[q],
+                q,
+                self.settings.symmetry,
+                &next.turns
+            ),
+            mv.at_q
+        );
+        next
+    }
+
+    /// What moving the singularity at mesh vertex `p` to mesh vertex `q` would do.
+    pub fn preview_move(&self, state: &EditState, p: usize, q: usize) -> MovePreview {
+        let mut search = PathSearch::new(self.mesh.n_vertices());
+        match self.plan(state, &mut search, p, q) {
+            Ok(mv) => {
+                let mut path: Vec<usize> = mv.path.iter().map(|&h| self.mesh.from(h)).collect();
+                path.push(q);
+                MovePreview {
+                    path,
+                    result: Ok(mv.at_q),
+                }
+            }
+            Err(why) => MovePreview {
+                path: search
+                    .shortest_interior_path(&self.mesh, p, q, f64::INFINITY)
+                    .map(|hs| {
+                        let mut v: Vec<usize> = hs.iter().map(|&h| self.mesh.from(h)).collect();
+                        v.push(q);
+                        v
+                    })
+                    .unwrap_or_default(),
+                result: Err(why),
+            },
+        }
+    }
+
+    /// The state after one edit, or why the edit does not apply (a refusal is
+    /// [`EditError::Invalid`]).
+    pub fn apply(
+        &self,
+        state: &EditState,
+        edit: &Edit,
+        cancel: Cancel,
+    ) -> Result<EditState, EditError> {
+        match *edit {
+            Edit::MoveSingularity { from, to } => {
+                let p = self
+                    .file_to_mesh(from, "from")
+                    .map_err(EditError::Invalid)?;
+                let q = self.file_to_mesh(to, "to").map_err(EditError::Invalid)?;
+                let mut search = PathSearch::new(self.mesh.n_vertices());
+                let mv = self
+                    .plan(state, &mut search, p, q)
+                    .map_err(EditError::Invalid)?;
+                Ok(self.commit(state, &mv))
+            }
+            Edit::Relax => super::relax::relax(self, state, cancel).map(|r| r.state),
+        }
+    }
+
+    /// Replays an edit list from the initial state; edits that no longer apply are skipped
+    /// (listed with the reason) and the rest kept.
+    pub fn replay(&self, edits: &[Edit], cancel: Cancel) -> Result<Replay, EditError> {
+        let mut states = vec![self.initial.clone()];
+        let mut skipped = Vec::new();
+        for (i, edit) in edits.iter().enumerate() {
+            let before = states.last().expect("initial state");
+            let next = match self.apply(before, edit, cancel) {
+                Ok(next) => next,
+                Err(EditError::Invalid(reason)) => {
+                    skipped.push(Skipped {
+                        position: i + 1,
+                        edit: edit.clone(),
+                        reason,
+                    });
+                    before.clone()
+                }
+                Err(e) => return Err(e),
+            };
+            states.push(next);
+        }
+        Ok(Replay { states, skipped })
+    }
+
+    /// The field angles of a state: the fixed-matching system re-solved for its turns and
+    /// released faces (the base field's own angles for the initial state).
+    pub fn angles(&self, state: &EditState) -> Result<Vec<f64>, EditError> {
+        if state.turns == self.field.turns && state.released.is_empty() {
+            return Ok(self.field.theta.clone());
+        }
+        let system = self
+            .field
+            .system
+            .as_ref()
+            .ok_or_else(|| EditError::Field("the field kept no system".into()))?;
+        system
+            .solve(&self.tr, &state.turns, &state.released)
+            .map_err(|e| EditError::Field(e.to_string()))
+    }
+
+    /// Frames (U, V) per face for angles: isotropic, scaled by the field's density.
+    pub fn frames(&self, theta: &[f64]) -> Vec<[glam::DVec3; 2]> {
+        let (m, h) = (&self.field.multipliers, self.field.grid_size);
+        frames_from_angles(&self.bases, theta, |f| m[f] / h)
+    }
+
+    /// The curl of a state's field ([`Parameterization::curl`]), without the global step.
+    pub fn curl(&self, state: &EditState) -> Result<f64, EditError> {
+        let theta = self.angles(state)?;
+        let matchings = reduce_matchings(&self.tr, &state.turns, self.settings.symmetry);
+        crate::param::curl(
+            &self.mesh,
+            self.settings.symmetry as usize,
+            &matchings,
+            &self.frames(&theta),
+            Some(&self.analysis),
+        )
+        .map_err(|e| EditError::Param(e.to_string()))
+    }
+
+    /// The field and the parameterization of a state (a pure function of it).
+    pub fn solve(&self, state: &EditState, cancel: Cancel) -> Result<Solved, EditError> {
+        let mut timings = Vec::new();
+        let mut clock = Instant::now();
+        let mut lap = |name: &str, timings: &mut Vec<(String, f64)>| {
+            timings.push((name.to_string(), clock.elapsed().as_secs_f64()));
+            clock = Instant::now();
+        };
+        let n = self.settings.symmetry;
+        let theta = self.angles(state)?;
+        lap("field re-solve", &mut timings);
+        if cancel() {
+            return Err(EditError::Cancelled);
+        }
+        let field = FrameField {
+            symmetry: self.settings.symmetry(),
+            frames: self.frames(&theta),
+            matchings: reduce_matchings(&self.tr, &state.turns, n),
+        };
+        let indices = indices_from_angles(&self.mesh, &self.tr, &theta, &field.matchings, n);
+        let step = std::f64::consts::TAU / n as f64;
+        let mut omega = self.field.omega.clone();
+        for &f in self.field_released().iter().chain(&state.released) {
+            omega[f] = 0.0;
+        }
+        let target = self
+            .field
+            .system
+            .as_ref()
+            .map(|s| s.target().to_vec())
+            .unwrap_or_else(|| theta.clone());
+        let (e_smooth, e_align) = energies(&self.tr, step, &theta, &state.turns, &omega, &target);
+        lap("indices", &mut timings);
+        let qc = QuadCover::with_analysis(
+            &self.mesh,
+            n as usize,
+            &field.matchings,
+            self.settings.param_options(),
+            Some(&self.analysis),
+        )
+        .map_err(|e| EditError::Param(e.to_string()))?;
+        lap("QuadCover factorizations", &mut timings);
+        if cancel() {
+            return Err(EditError::Cancelled);
+        }
+        let param = qc
+            .solve(&self.mesh, &field.frames)
+            .map_err(|e| EditError::Param(e.to_string()))?;
+        lap("QuadCover solve", &mut timings);
+        Ok(Solved {
+            field,
+            theta,
+            indices,
+            param,
+            e_smooth,
+            e_align,
+            timings,
+        })
+    }
+
+    fn field_released(&self) -> &[usize] {
+        self.field
+            .system
+            .as_ref()
+            .map(|s| s.released_by_cancellation())
+            .unwrap_or(&[])
+    }
+}

@@ -1,0 +1,64 @@
+//! Edits of the frame field as values (thesis sec. 3.3): what the user sees is a pure function
+//! of (mesh, settings, ordered edit list). [`Base`] holds everything that depends on the mesh and
+//! the settings only (the computed field, its fixed-matching system, QuadCover's analyses);
+//! [`Base::apply`] turns one [`EditState`] into the next, purely combinatorially (matchings and
+//! released alignment weights; `relax` also solves, deterministically); [`Base::solve`] gives
+//! the field and the parameterization of a state. Replay ([`Base::replay`]) is the truth; the
+//! editor caches the states after each edit and checks nothing else.
+//!
+//! Vertices in edits are the mesh file's vertex indices (as in REPORT.json), not the repaired
+//! mesh's: [`Base`] maps between them.
+
+mod base;
+mod moves;
+pub mod project;
+mod relax;
+
+use serde::{Deserialize, Serialize};
+
+pub use base::{Base, EditState, MovePreview, Replay, Skipped, Solved};
+pub use project::{MeshRef, Project, ProjectError, Settings};
+
+/// One user edit, as written in a project file: a JSON object tagged by `op`.
+/// Later kinds (curves, features, boundary alignment, density) join this list.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "op", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Edit {
+    /// Move the singularity at file vertex `from` to file vertex `to` along a shortest edge path
+    /// (merging with a singularity there, or leaving through the boundary).
+    MoveSingularity { from: usize, to: usize },
+    /// Move every singularity to the neighbouring vertex that lowers the total curl, until none
+    /// does; merge singularities closer than `relax_merge_within` grid cells.
+    Relax,
+}
+
+impl Edit {
+    /// Short name for the history (Edit menu, notices).
+    pub fn label(&self) -> String {
+        match self {
+            Edit::MoveSingularity { from, to } => format!("Move singularity {from} → {to}"),
+            Edit::Relax => "Relax singularities".into(),
+        }
+    }
+}
+
+/// Why an edit or a solve did not complete.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EditError {
+    #[error("{0}")]
+    Field(String),
+    #[error("{0}")]
+    Param(String),
+    #[error("{0}")]
+    Invalid(String),
+    #[error("cancelled")]
+    Cancelled,
+}
+
+/// Asked between stages of long computations: `true` stops them with [`EditError::Cancelled`].
+pub type Cancel<'a> = &'a (dyn Fn() -> bool + Sync);
+
+/// A [`Cancel`] that never cancels.
+pub fn never() -> bool {
+    false
+}
