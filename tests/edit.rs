@@ -466,3 +466,101 @@ fn relax_lowers_curl_on_every_shared_mesh() {
     }
     assert!(checked >= 9);
 }
+
+/// `solve --project`: edits replayed, the skipped one reported with its position; a broken
+/// project exits with code 2 and a message naming the file and the edit.
+#[test]
+fn solve_with_a_project_on_the_command_line() {
+    let Some(mesh) = shared("spot.obj") else {
+        return;
+    };
+    let base = base_for(&mesh, Settings::default());
+    let s0 = base.initial();
+    let p = *s0.singularities.keys().next().unwrap();
+    let q = vertex_away(&base, s0, p, 3);
+    let free = vertex_away(&base, s0, p, 5);
+    let dir = tempfile::tempdir().unwrap();
+    let project = Project {
+        mesh: MeshRef {
+            path: mesh.clone(),
+            sha256: Some(quadcover::edit::project::sha256_hex(
+                &std::fs::read(&mesh).unwrap(),
+            )),
+        },
+        settings: Settings::default(),
+        edits: vec![
+            Edit::MoveSingularity {
+                from: base.file_vertex(p),
+                to: base.file_vertex(q),
+            },
+            Edit::MoveSingularity {
+                from: base.file_vertex(free),
+                to: base.file_vertex(q),
+            },
+        ],
+    };
+    let pfile = dir.path().join("p.json");
+    project.save(&pfile).unwrap();
+    let (out, report) = (dir.path().join("uv.obj"), dir.path().join("r.json"));
+    let run = |args: &[&std::ffi::OsStr]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_quadcover"))
+            .arg("solve")
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let o = run(&[
+        "--project".as_ref(),
+        pfile.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--report".as_ref(),
+        report.as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(r["edits_applied"], 1);
+    assert_eq!(r["skipped_edits"][0]["position"], 2);
+    assert!(r["curl"].as_f64().unwrap() > 0.0);
+    let sing: Vec<u64> = r["singularities"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["vertex"].as_u64().unwrap())
+        .collect();
+    assert!(sing.contains(&(base.file_vertex(q) as u64)));
+    assert!(!sing.contains(&(base.file_vertex(p) as u64)));
+
+    // Broken projects: truncated, an unknown op, a changed mesh.
+    let text = std::fs::read_to_string(&pfile).unwrap();
+    for (name, body, expect) in [
+        (
+            "truncated.json",
+            text[..text.len() / 2].to_string(),
+            "truncated",
+        ),
+        (
+            "unknown.json",
+            text.replacen("move_singularity", "teleport", 1),
+            "edit 1",
+        ),
+        (
+            "hash.json",
+            text.replace(project.mesh.sha256.as_deref().unwrap(), &"0".repeat(64)),
+            "changed",
+        ),
+    ] {
+        let bad = dir.path().join(name);
+        std::fs::write(&bad, body).unwrap();
+        let o = run(&[
+            "--project".as_ref(),
+            bad.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{name}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(name) && err.contains(expect), "{name}: {err}");
+    }
+}
