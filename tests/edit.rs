@@ -564,3 +564,44 @@ fn solve_with_a_project_on_the_command_line() {
         assert!(err.contains(name) && err.contains(expect), "{name}: {err}");
     }
 }
+
+/// Any symmetry: a singularity of index k/N moves with its k (N = 2 and 6 on spot), the map
+/// stays seamless, and relax lowers the curl there too.
+#[test]
+fn moves_and_relax_for_two_and_six_fold_fields() {
+    let Some(path) = shared("spot.obj") else {
+        return;
+    };
+    for n in [2u32, 6] {
+        let base = base_for(
+            &path,
+            Settings {
+                symmetry: n,
+                ..Settings::default()
+            },
+        );
+        let s0 = base.initial().clone();
+        let (&p, &k) = s0.singularities.iter().next().expect("a singularity");
+        let q = vertex_away(&base, &s0, p, 3);
+        let s1 = apply(
+            &base,
+            &s0,
+            Edit::MoveSingularity {
+                from: base.file_vertex(p),
+                to: base.file_vertex(q),
+            },
+        )
+        .unwrap();
+        let mut expected = s0.singularities.clone();
+        expected.remove(&p);
+        expected.insert(q, k);
+        assert_eq!(s1.singularities, expected, "N = {n}");
+        check_solved(&base, &s1, &base.solve(&s1, &quadcover::edit::never).unwrap());
+        let before = base.curl(&s0).unwrap();
+        let relaxed = apply(&base, &s0, Edit::Relax).unwrap();
+        let after = base.curl(&relaxed).unwrap();
+        assert!(after < before, "N = {n}: curl {before} -> {after}");
+        assert!(relaxed.singularities.len() <= s0.singularities.len());
+        check_solved(&base, &relaxed, &base.solve(&relaxed, &quadcover::edit::never).unwrap());
+    }
+}

@@ -36,7 +36,7 @@ impl Edit {
     /// Short name for the history (Edit menu, notices).
     pub fn label(&self) -> String {
         match self {
-            Edit::MoveSingularity { from, to } => format!("Move singularity {from} → {to}"),
+            Edit::MoveSingularity { from, to } => format!("Move singularity {from} -> {to}"),
             Edit::Relax => "Relax singularities".into(),
         }
     }

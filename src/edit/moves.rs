@@ -75,7 +75,7 @@ impl MergeRules {
         if self.no_half_merges && n == 4 && k.abs() == 2 {
             return Err(format!(
                 "it would create a singularity of index {}2/4 (a hanging node), and no_half_merges is on",
-                if k > 0 { "+" } else { "−" }
+                if k > 0 { "+" } else { "-" }
             ));
         }
         Ok(())
@@ -141,4 +141,29 @@ pub(crate) fn released_faces(mesh: &TriMesh, path: &[usize]) -> Vec<usize> {
     faces.sort_unstable();
     faces.dedup();
     faces
+}
+
+#[cfg(test)]
+mod tests {
+    use super::MergeRules;
+
+    #[test]
+    fn merges_refuse_poles_and_optionally_hanging_nodes() {
+        let rules = |n, no_half_merges| MergeRules { n, no_half_merges };
+        // Poles (positive integral index) are refused for every N; saddles are not.
+        assert!(rules(2, false).check(2).unwrap_err().contains("pole"));
+        assert!(rules(2, false).check(-2).is_ok());
+        assert!(rules(4, false).check(4).unwrap_err().contains("+4/4"));
+        assert!(rules(4, false).check(8).is_err());
+        assert!(rules(4, false).check(-4).is_ok());
+        assert!(rules(6, false).check(6).is_err());
+        assert!(rules(6, false).check(3).is_ok());
+        // ±2/4 only with no_half_merges, and only for N = 4.
+        assert!(rules(4, false).check(2).is_ok());
+        assert!(rules(4, true).check(2).unwrap_err().contains("no_half_merges"));
+        assert!(rules(4, true).check(-2).is_err());
+        assert!(rules(4, true).check(-3).is_ok());
+        assert!(rules(6, true).check(2).is_ok());
+        assert!(rules(4, true).check(0).is_ok());
+    }
 }

@@ -276,7 +276,7 @@ impl Project {
         }
         let mesh: MeshRef = serde_json::from_value(
             obj.remove("mesh")
-                .ok_or_else(|| format("no \"mesh\": {\"path\": …}".into()))?,
+                .ok_or_else(|| format("no \"mesh\": {\"path\": ...}".into()))?,
         )
         .map_err(|e| format(format!("mesh: {e}")))?;
         let settings: Settings = match obj.remove("settings") {
