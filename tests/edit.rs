@@ -231,6 +231,37 @@ fn scripted_moves_merges_and_cancellations_on_spot() {
         replay.skipped[0].reason
     );
     assert_eq!(replay.states[2], s2);
+    // A settings change the field does not depend on reuses the field; replay gives the same.
+    let reused = base
+        .with_settings(strict.settings().clone())
+        .unwrap()
+        .unwrap();
+    let again = reused
+        .replay(
+            &[
+                Edit::MoveSingularity {
+                    from: fv(p),
+                    to: fv(q),
+                },
+                Edit::MoveSingularity {
+                    from: fv(a),
+                    to: fv(b),
+                },
+                Edit::MoveSingularity {
+                    from: fv(pos[0]),
+                    to: fv(pos[1]),
+                },
+            ],
+            &quadcover::edit::never,
+        )
+        .unwrap();
+    assert_eq!(again.states, replay.states);
+    assert_eq!(again.skipped, replay.skipped);
+    let tau = Settings {
+        tau: 2.0,
+        ..Settings::default()
+    };
+    assert!(base.with_settings(tau).unwrap().is_none());
 
     // A non-singular `from` is refused with a message naming it; in a replay it is skipped
     // (position named) and the rest kept.
@@ -596,12 +627,20 @@ fn moves_and_relax_for_two_and_six_fold_fields() {
         expected.remove(&p);
         expected.insert(q, k);
         assert_eq!(s1.singularities, expected, "N = {n}");
-        check_solved(&base, &s1, &base.solve(&s1, &quadcover::edit::never).unwrap());
+        check_solved(
+            &base,
+            &s1,
+            &base.solve(&s1, &quadcover::edit::never).unwrap(),
+        );
         let before = base.curl(&s0).unwrap();
         let relaxed = apply(&base, &s0, Edit::Relax).unwrap();
         let after = base.curl(&relaxed).unwrap();
         assert!(after < before, "N = {n}: curl {before} -> {after}");
         assert!(relaxed.singularities.len() <= s0.singularities.len());
-        check_solved(&base, &relaxed, &base.solve(&relaxed, &quadcover::edit::never).unwrap());
+        check_solved(
+            &base,
+            &relaxed,
+            &base.solve(&relaxed, &quadcover::edit::never).unwrap(),
+        );
     }
 }

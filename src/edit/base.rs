@@ -94,10 +94,10 @@ pub struct Base {
     settings: Settings,
     to_file: Vec<u32>,
     from_file: Vec<u32>,
-    field: FieldResult,
-    bases: FaceBases,
-    tr: EdgeTransport,
-    defects: Vec<f64>,
+    field: Arc<FieldResult>,
+    bases: Arc<FaceBases>,
+    tr: Arc<EdgeTransport>,
+    defects: Arc<Vec<f64>>,
     analysis: Arc<ParamAnalysis>,
     initial: EditState,
 }
@@ -175,13 +175,35 @@ impl Base {
             settings,
             to_file,
             from_file,
-            field,
-            bases,
-            tr,
-            defects,
+            field: Arc::new(field),
+            bases: Arc::new(bases),
+            tr: Arc::new(tr),
+            defects: Arc::new(defects),
             analysis: Arc::new(analysis),
             initial,
         })
+    }
+
+    /// A base for other settings sharing this one's field and analyses, when the field does not
+    /// depend on what changed (merge rules, relax radius, pure quad, rounding); `None` when it
+    /// does (then [`Base::new`] computes it again).
+    pub fn with_settings(&self, settings: Settings) -> Result<Option<Base>, EditError> {
+        settings.validate().map_err(EditError::Invalid)?;
+        if settings.field_params() != self.settings.field_params() {
+            return Ok(None);
+        }
+        Ok(Some(Base {
+            mesh: self.mesh.clone(),
+            settings,
+            to_file: self.to_file.clone(),
+            from_file: self.from_file.clone(),
+            field: self.field.clone(),
+            bases: self.bases.clone(),
+            tr: self.tr.clone(),
+            defects: self.defects.clone(),
+            analysis: self.analysis.clone(),
+            initial: self.initial.clone(),
+        }))
     }
 
     /// [`Base::new`] for a mesh whose vertices are the file's (generated meshes, tests).
@@ -367,15 +389,30 @@ impl Base {
     /// Replays an edit list from the initial state; edits that no longer apply are skipped
     /// (listed with the reason) and the rest kept.
     pub fn replay(&self, edits: &[Edit], cancel: Cancel) -> Result<Replay, EditError> {
-        let mut states = vec![self.initial.clone()];
+        self.replay_from(self.initial.clone(), 0, edits, cancel)
+    }
+
+    /// [`Base::replay`] of the edits after position `first` of a list, from the state there (a
+    /// cached one: the editor's undo history); skipped edits are numbered in the whole list.
+    pub fn replay_from(
+        &self,
+        start: EditState,
+        first: usize,
+        edits: &[Edit],
+        cancel: Cancel,
+    ) -> Result<Replay, EditError> {
+        let mut states = vec![start];
         let mut skipped = Vec::new();
         for (i, edit) in edits.iter().enumerate() {
+            if cancel() {
+                return Err(EditError::Cancelled);
+            }
             let before = states.last().expect("initial state");
             let next = match self.apply(before, edit, cancel) {
                 Ok(next) => next,
                 Err(EditError::Invalid(reason)) => {
                     skipped.push(Skipped {
-                        position: i + 1,
+                        position: first + i + 1,
                         edit: edit.clone(),
                         reason,
                     });

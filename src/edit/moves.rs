@@ -160,7 +160,12 @@ mod tests {
         assert!(rules(6, false).check(3).is_ok());
         // ±2/4 only with no_half_merges, and only for N = 4.
         assert!(rules(4, false).check(2).is_ok());
-        assert!(rules(4, true).check(2).unwrap_err().contains("no_half_merges"));
+        assert!(
+            rules(4, true)
+                .check(2)
+                .unwrap_err()
+                .contains("no_half_merges")
+        );
         assert!(rules(4, true).check(-2).is_err());
         assert!(rules(4, true).check(-3).is_ok());
         assert!(rules(6, true).check(2).is_ok());
