@@ -27,7 +27,8 @@ fn harness_with(
         recent_store: Some(recent.to_path_buf()),
         auto_solve,
     };
-    let builder = Harness::builder().with_size(egui::vec2(1100.0, 720.0));
+    // Tall enough that the whole side panel is on screen (clicks land on visible widgets).
+    let builder = Harness::builder().with_size(egui::vec2(1100.0, 1400.0));
     let builder = if gpu_available() {
         builder.wgpu()
     } else {
@@ -391,4 +392,666 @@ fn on_start_field_and_parameterization_are_computed_in_the_background() {
     assert!(h.state().document.has_param());
     assert_eq!(h.state().document.display.mode, DisplayMode::Pattern);
     h.get_by_label_contains("Parameterization: ");
+}
+
+// ---- singularity editing (issue #13) ----------------------------------------------------------
+
+use quadcover::app::files::PendingAction;
+use quadcover::app::picking::project;
+use quadcover::edit::{Edit, Project};
+
+/// Singularities of the document's current state as (file vertex, k).
+fn singularities(h: &Harness<'static, EditorApp>) -> Vec<(usize, i32)> {
+    h.state()
+        .document
+        .file_singularities()
+        .expect("the document is editable")
+}
+
+fn uvs(h: &Harness<'static, EditorApp>) -> Vec<[f64; 2]> {
+    h.state()
+        .document
+        .parameterization
+        .as_ref()
+        .expect("a parameterization")
+        .uv
+        .clone()
+}
+
+/// A move the drag test can do on screen: the source glyph's and the target vertex's screen
+/// positions, the mesh vertices and the index k.
+struct ScreenMove {
+    from_px: egui::Pos2,
+    to_px: egui::Pos2,
+    from: usize,
+    to: usize,
+    k: i32,
+}
+
+/// Finds a visible singularity and a visible non-singular vertex 40–120 px away on screen
+/// that the move would accept (and that is not near another glyph).
+fn find_screen_move(app: &EditorApp) -> ScreenMove {
+    let view = app.view();
+    let picker = app.current_picker().expect("the picking BVH is built");
+    let (base, state) = app.document.editable().expect("editable");
+    let inner = view.rect.shrink(60.0);
+    let glyph_px: Vec<(usize, egui::Pos2)> = state
+        .singularities
+        .keys()
+        .filter_map(|&v| Some((v, project(&view, base.mesh().position(v).as_vec3())?)))
+        .collect();
+    for &(p, sp) in &glyph_px {
+        if !inner.contains(sp) || picker.pick_vertex_glyph(&view, sp, [p], 10.0) != Some(p) {
+            continue;
+        }
+        // another glyph too close would make the press ambiguous
+        if glyph_px
+            .iter()
+            .any(|&(q, sq)| q != p && sq.distance(sp) < 14.0)
+        {
+            continue;
+        }
+        for (dx, dy) in [
+            (60.0, 0.0),
+            (0.0, 60.0),
+            (-60.0, 0.0),
+            (0.0, -60.0),
+            (45.0, 45.0),
+        ] {
+            let Some(hit) = picker.pick(&view, sp + egui::vec2(dx, dy)) else {
+                continue;
+            };
+            let q = hit.vertex;
+            let Some(sq) = project(&view, base.mesh().position(q).as_vec3()) else {
+                continue;
+            };
+            let far_from_glyphs = glyph_px.iter().all(|&(_, g)| g.distance(sq) > 16.0);
+            if state.singularities.contains_key(&q)
+                || !far_from_glyphs
+                || !inner.contains(sq)
+                || sq.distance(sp) < 40.0
+                || picker.pick(&view, sq).map(|h| h.vertex) != Some(q)
+            {
+                continue;
+            }
+            if let Ok(Some(k)) = base.preview_move(state, p, q).result {
+                assert_eq!(k, state.singularities[&p]);
+                return ScreenMove {
+                    from_px: sp,
+                    to_px: sq,
+                    from: p,
+                    to: q,
+                    k,
+                };
+            }
+        }
+    }
+    panic!("no visible singularity with a free vertex beside it");
+}
+
+fn press(h: &mut Harness<'static, EditorApp>, pos: egui::Pos2, pressed: bool) {
+    h.event(egui::Event::PointerButton {
+        pos,
+        button: egui::PointerButton::Primary,
+        pressed,
+        modifiers: egui::Modifiers::NONE,
+    });
+}
+
+/// Hover a glyph (tooltip), press on it, drag in steps onto a free vertex (live preview),
+/// release: one edit, re-solved in the background; undo and redo restore the states exactly.
+#[test]
+fn dragging_a_singularity_moves_it_and_undo_redo_restore_it() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness_with(
+        &dir.path().join("recent.txt"),
+        Some(shared_mesh("spot.obj")),
+        true,
+    );
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    let before = singularities(&h);
+    let uv_before = uvs(&h);
+    let revision_before = h.state().document.revision();
+    let mv = find_screen_move(h.state());
+    let (file_from, file_to) = {
+        let base = h.state().document.edit_base.clone().unwrap();
+        (base.file_vertex(mv.from), base.file_vertex(mv.to))
+    };
+    let camera = h.state().camera;
+
+    // hover: the tooltip names the vertex and the index
+    h.hover_at(mv.from_px);
+    h.run_steps(2);
+    h.get_by_label_contains(&format!("Singularity at vertex {file_from}, index"));
+
+    // press and drag: the preview follows the cursor, the camera does not orbit
+    press(&mut h, mv.from_px, true);
+    h.step();
+    for i in 1..=6 {
+        h.hover_at(mv.from_px + (mv.to_px - mv.from_px) * (i as f32 / 6.0));
+        h.step();
+    }
+    assert_eq!(h.state().camera, camera, "the drag orbited the camera");
+    assert!(h.state().tool.active());
+    let overlay = h
+        .state()
+        .tool
+        .overlay()
+        .expect("a path preview while dragging");
+    assert!(!overlay.lines.is_empty());
+    h.get_by_label_contains(&format!("-> {file_to}"));
+    press(&mut h, mv.to_px, false);
+    h.step();
+    assert!(!h.state().tool.active());
+    assert_eq!(
+        h.state().document.applied_edits(),
+        &[Edit::MoveSingularity {
+            from: file_from,
+            to: file_to
+        }]
+    );
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    assert!(h.state().document.solve_current());
+    assert!(h.state().document.solve_error.is_none());
+    let after = singularities(&h);
+    let mut expected: Vec<(usize, i32)> = before
+        .iter()
+        .copied()
+        .filter(|&(v, _)| v != file_from)
+        .chain([(file_to, mv.k)])
+        .collect();
+    expected.sort_unstable();
+    assert_eq!(after, expected);
+    // the shown field and texture were rebuilt for the new state
+    assert!(h.state().document.revision() > revision_before);
+    let shown: Vec<usize> = h
+        .state()
+        .document
+        .field
+        .as_ref()
+        .unwrap()
+        .singularities
+        .iter()
+        .map(|s| s.vertex)
+        .collect();
+    assert!(shown.contains(&mv.to) && !shown.contains(&mv.from));
+    let uv_after = uvs(&h);
+    assert!(uv_after != uv_before, "the map did not change");
+    assert!(h.state().title().contains('*'), "{}", h.state().title());
+    save_render(&mut h, "ui_moved_singularity.png");
+
+    // the Edit menu lists the history
+    h.get_by_label("Edit").click();
+    h.run_steps(2);
+    h.get_by_label_contains(&format!("1. Move singularity {file_from} -> {file_to}"));
+    h.key_press(egui::Key::Escape);
+    h.run_steps(2);
+
+    // undo (Ctrl+Z): the earlier state exactly
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    settle(&mut h);
+    assert_eq!(h.state().document.cursor(), 0);
+    assert_eq!(singularities(&h), before);
+    assert!(
+        uvs(&h) == uv_before,
+        "undo gives the earlier map bit for bit"
+    );
+    assert!(!h.state().document.is_dirty());
+    // redo (Ctrl+Shift+Z), undo again, redo (Ctrl+Y)
+    h.key_press_modifiers(
+        egui::Modifiers::COMMAND | egui::Modifiers::SHIFT,
+        egui::Key::Z,
+    );
+    h.step();
+    settle(&mut h);
+    assert_eq!(singularities(&h), after);
+    assert!(uvs(&h) == uv_after, "redo gives the later map bit for bit");
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Y);
+    h.step();
+    settle(&mut h);
+    assert_eq!(h.state().document.cursor(), 1);
+    assert_eq!(singularities(&h), after);
+
+    // Esc cancels a drag: no edit
+    let mv2 = find_screen_move(h.state());
+    press(&mut h, mv2.from_px, true);
+    h.step();
+    for i in 1..=4 {
+        h.hover_at(mv2.from_px + (mv2.to_px - mv2.from_px) * (i as f32 / 4.0));
+        h.step();
+    }
+    assert!(h.state().tool.active());
+    h.key_press(egui::Key::Escape);
+    h.step();
+    assert!(h.state().tool.overlay().is_none(), "the preview is gone");
+    // moving on with the button still down neither drags nor orbits
+    let cam = h.state().camera;
+    h.hover_at(mv2.to_px + egui::vec2(30.0, 10.0));
+    h.step();
+    assert_eq!(h.state().camera, cam);
+    press(&mut h, mv2.to_px, false);
+    h.step();
+    assert!(!h.state().tool.active());
+    settle(&mut h);
+    assert_eq!(h.state().document.edits.len(), 1);
+    assert_eq!(singularities(&h), after);
+
+    // a press away from any glyph still orbits
+    let empty = h.state().view().rect.left_top() + egui::vec2(120.0, 300.0);
+    press(&mut h, empty, true);
+    h.step();
+    for i in 1..=4 {
+        h.hover_at(empty + egui::vec2(20.0 * i as f32, 0.0));
+        h.step();
+    }
+    press(&mut h, empty + egui::vec2(80.0, 0.0), false);
+    h.step();
+    assert_ne!(h.state().camera.yaw, camera.yaw);
+    assert_eq!(h.state().document.edits.len(), 1);
+}
+
+/// Rapid edits coalesce: only the newest state is solved and shown; Relax runs in the job.
+#[test]
+fn rapid_edits_coalesce_and_relax_runs_in_the_background() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness_with(
+        &dir.path().join("recent.txt"),
+        Some(shared_mesh("spot.obj")),
+        true,
+    );
+    settle(&mut h);
+    let before = singularities(&h);
+    let curl_before = h.state().document.parameterization.as_ref().unwrap().curl;
+    // Relax, undo, redo, in the same frame: one solve for the last revision
+    h.get_by_label("Relax").click();
+    h.step();
+    h.state_mut().undo();
+    h.state_mut().redo();
+    let revision = h.state().document.edit_revision();
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    assert!(h.state().document.solve_error.is_none());
+    assert_eq!(
+        h.state().document.solve_info.as_ref().unwrap().revision,
+        revision
+    );
+    assert_eq!(h.state().document.applied_edits(), &[Edit::Relax]);
+    let relaxed = singularities(&h);
+    assert!(relaxed.len() <= before.len());
+    let curl = h.state().document.parameterization.as_ref().unwrap().curl;
+    assert!(
+        curl <= curl_before + 1e-9,
+        "relax raised the curl: {curl_before} -> {curl}"
+    );
+    h.get_by_label_contains("1 of 1 edits applied");
+}
+
+/// Save the project, reopen it (same edits, same singularities, the same map bit for bit);
+/// broken project files show an error and the editor keeps its document; opening another
+/// file with unsaved changes asks first.
+#[test]
+fn projects_save_reopen_and_broken_ones_keep_the_document() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mesh = dir.path().join("spot.obj");
+    std::fs::copy(shared_mesh("spot.obj"), &mesh).expect("copy the mesh");
+    let mut h = harness_with(&dir.path().join("recent.txt"), Some(mesh.clone()), true);
+    settle(&mut h);
+    // an edit through the document API (the drag test covers the gesture)
+    let edit = {
+        let (base, state) = h.state().document.editable().unwrap();
+        let (&p, _) = state.singularities.iter().next().unwrap();
+        let q = base
+            .mesh()
+            .outgoing(p)
+            .map(|hh| base.mesh().to(hh))
+            .find(|q| !state.singularities.contains_key(q) && !base.mesh().is_boundary_vertex(*q))
+            .expect("a free neighbour");
+        Edit::MoveSingularity {
+            from: base.file_vertex(p),
+            to: base.file_vertex(q),
+        }
+    };
+    h.state_mut().commit_edit(edit.clone());
+    settle(&mut h);
+    assert!(h.state().document.is_dirty());
+    let sing = singularities(&h);
+    let uv = uvs(&h);
+
+    let project_path = dir.path().join("spot-project.json");
+    assert!(h.state_mut().save_project_to(&project_path));
+    assert!(!h.state().document.is_dirty());
+    assert!(!h.state().title().contains('*'), "{}", h.state().title());
+    assert!(h.state().title().contains("spot-project.json"));
+    let saved = Project::load(&project_path).expect("the saved project reads back");
+    assert_eq!(saved.edits, vec![edit.clone()]);
+    assert_eq!(saved.mesh.path, PathBuf::from("spot.obj"));
+
+    // reopen in a fresh editor: same edits, singularities and map
+    let mut h2 = harness_with(
+        &dir.path().join("recent.txt"),
+        Some(project_path.clone()),
+        false,
+    );
+    settle(&mut h2);
+    assert!(h2.state().error.is_none(), "{:?}", h2.state().error);
+    assert_eq!(
+        h2.state().document.applied_edits(),
+        std::slice::from_ref(&edit)
+    );
+    assert_eq!(singularities(&h2), sing);
+    assert!(
+        uvs(&h2) == uv,
+        "a replayed project gives the same map bit for bit"
+    );
+    assert!(!h2.state().document.is_dirty());
+    drop(h2);
+
+    // broken projects: the error names the file (and the edit); the document stays
+    let json = std::fs::read_to_string(&project_path).unwrap();
+    let changed_mesh = dir.path().join("changed.obj");
+    std::fs::write(
+        &changed_mesh,
+        format!("{}\n# changed\n", std::fs::read_to_string(&mesh).unwrap()),
+    )
+    .unwrap();
+    let cases = [
+        (
+            "truncated.json",
+            json[..json.len() / 2].to_string(),
+            "truncated",
+        ),
+        (
+            "unknown-op.json",
+            json.replace("move_singularity", "explode"),
+            "edit 1",
+        ),
+        (
+            "out-of-range.json",
+            json.replacen(
+                &format!(
+                    "\"to\": {}",
+                    match edit {
+                        Edit::MoveSingularity { to, .. } => to,
+                        _ => unreachable!(),
+                    }
+                ),
+                "\"to\": 99999999",
+                1,
+            ),
+            "edit 1",
+        ),
+        (
+            "hash.json",
+            json.replace("\"spot.obj\"", "\"changed.obj\""),
+            "changed",
+        ),
+    ];
+    for (name, text, expect) in cases {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        let ctx = h.ctx.clone();
+        h.state_mut().open_path(&path, Some(ctx));
+        settle(&mut h);
+        let err = h
+            .state()
+            .error
+            .clone()
+            .unwrap_or_else(|| panic!("{name}: no error shown"));
+        assert!(err.contains(name), "{name}: {err}");
+        assert!(err.contains(expect), "{name}: {err}");
+        h.get_by_label_contains("Could not complete");
+        assert_eq!(
+            h.state().document.applied_edits(),
+            std::slice::from_ref(&edit),
+            "{name}"
+        );
+        assert_eq!(singularities(&h), sing, "{name}");
+        assert_eq!(
+            h.state().document.project_path.as_deref(),
+            Some(project_path.as_path())
+        );
+        h.get_by_label("OK").click();
+        h.run_steps(2);
+        assert!(h.state().error.is_none());
+    }
+
+    // Ctrl+S saves to the project's file
+    h.get_by_label("Relax").click();
+    h.step();
+    settle(&mut h);
+    assert!(h.state().document.is_dirty());
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::S);
+    h.step();
+    assert!(!h.state().document.is_dirty());
+    let saved = Project::load(&project_path).unwrap();
+    assert_eq!(saved.edits, vec![edit.clone(), Edit::Relax]);
+
+    // unsaved changes: opening another file asks; Cancel keeps, Discard opens
+    h.state_mut().undo();
+    settle(&mut h);
+    assert!(h.state().document.is_dirty());
+    assert!(h.state().title().contains('*'));
+    h.state_mut()
+        .request(PendingAction::Open(shared_mesh("kitten.obj")));
+    h.run_steps(2);
+    assert!(h.state().confirm.is_some());
+    h.get_by_label("Cancel").click();
+    h.run_steps(2);
+    settle(&mut h);
+    assert!(h.state().confirm.is_none());
+    h.get_by_label("File: spot.obj");
+    h.state_mut()
+        .request(PendingAction::Open(shared_mesh("kitten.obj")));
+    h.run_steps(2);
+    h.get_by_label("Discard").click();
+    h.run_steps(2);
+    settle(&mut h);
+    h.get_by_label("File: kitten.obj");
+    assert!(h.state().document.edits.is_empty());
+}
+
+/// New settings rebuild the base and replay the edits in the background; an edit that no
+/// longer applies is skipped with a visible notice; closing with unsaved changes asks first.
+#[test]
+fn settings_replay_the_edits_and_skipped_edits_are_shown() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mesh = dir.path().join("spot.obj");
+    std::fs::copy(shared_mesh("spot.obj"), &mesh).expect("copy the mesh");
+    let mut h = harness_with(&dir.path().join("recent.txt"), Some(mesh.clone()), true);
+    settle(&mut h);
+    let (good, free, not_singular) = {
+        let (base, state) = h.state().document.editable().unwrap();
+        let (&p, _) = state.singularities.iter().next().unwrap();
+        let q = base
+            .mesh()
+            .outgoing(p)
+            .map(|hh| base.mesh().to(hh))
+            .find(|q| !state.singularities.contains_key(q))
+            .unwrap();
+        let other = (0..base.mesh().n_vertices())
+            .find(|v| *v != q && *v != p && !state.singularities.contains_key(v))
+            .unwrap();
+        (
+            Edit::MoveSingularity {
+                from: base.file_vertex(p),
+                to: base.file_vertex(q),
+            },
+            base.file_vertex(q),
+            base.file_vertex(other),
+        )
+    };
+    // a project whose second edit names a vertex that is not singular: replay skips it
+    let bad = Edit::MoveSingularity {
+        from: not_singular,
+        to: free,
+    };
+    let mut project = h
+        .state()
+        .document
+        .project_for(&dir.path().join("p.json"))
+        .unwrap();
+    project.edits = vec![good.clone(), bad.clone()];
+    project.save(&dir.path().join("p.json")).unwrap();
+    let ctx = h.ctx.clone();
+    h.state_mut()
+        .open_path(&dir.path().join("p.json"), Some(ctx));
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    let skipped = &h.state().document.skipped;
+    assert_eq!(skipped.len(), 1, "{skipped:?}");
+    assert_eq!(skipped[0].position, 2);
+    assert_eq!(skipped[0].edit, bad);
+    h.get_by_label_contains("Skipped edits (1)");
+    h.get_by_label_contains("edit 2: Move singularity");
+    let after_good = singularities(&h);
+
+    // new settings: the base is rebuilt and both edits replayed
+    let base_before = h.state().document.edit_base.clone().unwrap();
+    h.state_mut().settings_draft.tau = 0.5;
+    h.run_steps(2);
+    h.get_by_label("Apply settings").click();
+    h.step();
+    assert!(
+        h.state().document.editable().is_none(),
+        "the old base is not editable"
+    );
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    let base_after = h.state().document.edit_base.clone().unwrap();
+    assert!(!Arc::ptr_eq(&base_before, &base_after));
+    assert_eq!(base_after.settings().tau, 0.5);
+    assert!(h.state().document.solve_current());
+    assert_eq!(h.state().document.applied_edits().len(), 2);
+    assert!(h.state().document.is_dirty());
+    // the first edit still moved its singularity (same mesh, same move)
+    let (from, to) = match good {
+        Edit::MoveSingularity { from, to } => (from, to),
+        _ => unreachable!(),
+    };
+    let now = singularities(&h);
+    assert!(now.iter().any(|&(v, _)| v == to), "{now:?}");
+    assert!(!now.iter().any(|&(v, _)| v == from), "{now:?}");
+    assert!(after_good.iter().any(|&(v, _)| v == to));
+
+    // closing with unsaved changes asks; Cancel keeps the window
+    h.state_mut().request(PendingAction::Close);
+    h.run_steps(2);
+    h.get_by_label("Unsaved changes");
+    h.get_by_label("Cancel").click();
+    h.run_steps(2);
+    assert!(h.state().confirm.is_none());
+    assert!(h.state().document.is_dirty());
+}
+
+/// Two visible singularities apart from the others whose indices satisfy `want`:
+/// (mesh p, mesh q, screen p, screen q).
+fn find_pair(
+    app: &EditorApp,
+    want: impl Fn(i32, i32) -> bool,
+) -> Option<(usize, usize, egui::Pos2, egui::Pos2)> {
+    let view = app.view();
+    let picker = app.current_picker()?;
+    let (base, state) = app.document.editable()?;
+    let inner = view.rect.shrink(60.0);
+    let screen = |v: usize| project(&view, base.mesh().position(v).as_vec3());
+    let glyphs: Vec<(usize, egui::Pos2)> = state
+        .singularities
+        .keys()
+        .filter_map(|&v| Some((v, screen(v)?)))
+        .filter(|(v, s)| {
+            inner.contains(*s) && picker.pick_vertex_glyph(&view, *s, [*v], 10.0) == Some(*v)
+        })
+        .collect();
+    let isolated = |v: usize, s: egui::Pos2| {
+        state
+            .singularities
+            .keys()
+            .all(|&w| w == v || screen(w).is_none_or(|t| t.distance(s) > 14.0))
+    };
+    for &(p, sp) in &glyphs {
+        for &(q, sq) in &glyphs {
+            if p != q
+                && want(state.singularities[&p], state.singularities[&q])
+                && sp.distance(sq) > 30.0
+                && isolated(p, sp)
+                && isolated(q, sq)
+            {
+                return Some((p, q, sp, sq));
+            }
+        }
+    }
+    None
+}
+
+/// Drags the glyph at `sp` onto `sq` in steps; checks the tooltip shows `expect` before the
+/// release.
+fn drag_glyph(h: &mut Harness<'static, EditorApp>, sp: egui::Pos2, sq: egui::Pos2, expect: &str) {
+    press(h, sp, true);
+    h.step();
+    for i in 1..=6 {
+        h.hover_at(sp + (sq - sp) * (i as f32 / 6.0));
+        h.step();
+    }
+    assert!(h.state().tool.overlay().is_some(), "no preview");
+    h.get_by_label_contains(expect);
+    press(h, sq, false);
+    h.step();
+    settle(h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+}
+
+/// Dragging a singularity onto one of the opposite sign cancels both (the tooltip says so
+/// before the release); with `no_half_merges`, dragging +1/4 onto +1/4 is refused: the
+/// tooltip and then the notice say why, and nothing is committed.
+#[test]
+fn dragging_onto_another_singularity_merges_or_says_why_not() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness_with(
+        &dir.path().join("recent.txt"),
+        Some(shared_mesh("spot.obj")),
+        true,
+    );
+    settle(&mut h);
+    let before = singularities(&h);
+    let base = h.state().document.edit_base.clone().unwrap();
+    let (p, q, sp, sq) = find_pair(h.state(), |a, b| a == -b).expect("an opposite pair on screen");
+    let (fp, fq) = (base.file_vertex(p), base.file_vertex(q));
+    {
+        let (_, state) = h.state().document.editable().unwrap();
+        assert_eq!(base.preview_move(state, p, q).result, Ok(Some(0)));
+    }
+    drag_glyph(&mut h, sp, sq, "both cancel");
+    assert_eq!(
+        h.state().document.applied_edits(),
+        &[Edit::MoveSingularity { from: fp, to: fq }]
+    );
+    let expected: Vec<(usize, i32)> = before
+        .iter()
+        .copied()
+        .filter(|&(v, _)| v != fp && v != fq)
+        .collect();
+    assert_eq!(singularities(&h), expected);
+
+    // no_half_merges: +1/4 onto +1/4 would make a +2/4 hanging node
+    h.state_mut().settings_draft.no_half_merges = true;
+    h.state_mut().apply_settings();
+    settle(&mut h);
+    assert!(h.state().document.settings.no_half_merges);
+    let before = singularities(&h);
+    let (_, _, sp, sq) = find_pair(h.state(), |a, b| a == 1 && b == 1).expect("two +1/4 on screen");
+    drag_glyph(&mut h, sp, sq, "Refused:");
+    assert_eq!(
+        h.state().document.edits.len(),
+        1,
+        "the refused merge was committed"
+    );
+    assert_eq!(singularities(&h), before);
+    let notice = h.state().notice.clone().expect("the refusal is shown");
+    assert!(notice.contains("refused"), "{notice}");
+    h.get_by_label_contains(&notice);
 }

@@ -1,9 +1,14 @@
 //! The document: the one state type through which the editor talks to the core.
 //!
-//! It owns the mesh with its load report, the field and the parameterization
-//! (in display-ready form), overlay lines and the display settings. Every
-//! change of geometry-related data bumps [`Document::revision`] and rebuilds
-//! the shared [`SceneData`], which the viewport uploads once per revision.
+//! It owns the mesh with its load report, the solve settings, the edit list with its undo
+//! cursor (the history *is* the edit list: `edits[..cursor]` are applied, the rest is the redo
+//! tail), the core's [`Base`] and cached [`EditState`]s per position (a cache: replay is the
+//! truth), the solved field and parameterization shown (in display-ready form), overlay lines
+//! and the display settings. Every change of geometry-related data bumps
+//! [`Document::revision`] and rebuilds the shared [`SceneData`], which the viewport uploads once
+//! per revision; every change of what should be solved (edit, undo, redo, settings, load) bumps
+//! [`Document::edit_revision`], and a [`SolveRequest`] tagged with it carries the work to a
+//! background job ([`SolveRequest::run`]); outcomes for an older revision are dropped.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -12,6 +17,8 @@ use glam::DVec3;
 
 use super::scene::{LineSegment, SceneData, singularity_color};
 use super::settings::DisplaySettings;
+use crate::edit::project::{relative_mesh_path, sha256_hex};
+use crate::edit::{Base, Edit, EditError, EditState, MeshRef, Project, Settings, Skipped, Solved};
 use crate::mesh::{Topology, TriMesh};
 
 /// The default mesh: Spot by Keenan Crane (CC0).
@@ -109,7 +116,13 @@ impl From<&Topology> for MeshStats {
 pub struct LoadedDocument {
     pub path: Option<PathBuf>,
     pub name: String,
-    pub mesh: TriMesh,
+    pub mesh: Arc<TriMesh>,
+    /// `RepairReport::original_vertex`: each mesh vertex's index in the file.
+    pub to_file: Vec<u32>,
+    /// The file's vertex count (edits name file vertices).
+    pub file_vertices: usize,
+    /// SHA-256 of the file's bytes (a project records it).
+    pub sha256: String,
     pub warnings: Vec<String>,
     pub stats: MeshStats,
     pub scene: SceneData,
@@ -119,7 +132,7 @@ pub struct LoadedDocument {
 pub fn load_bytes(name: &str, bytes: &[u8]) -> Result<LoadedDocument, String> {
     let format = crate::io::Format::from_path(Path::new(name)).unwrap_or(crate::io::Format::Obj);
     let soup = crate::io::read_mesh_bytes(bytes, format).map_err(|e| format!("{name}: {e}"))?;
-    finish_load(None, name.to_string(), soup)
+    finish_load(None, name.to_string(), soup, sha256_hex(bytes))
 }
 
 /// Like [`load_bytes`], from a file.
@@ -132,13 +145,15 @@ pub fn load_path(path: &Path) -> Result<LoadedDocument, String> {
         crate::io::ReadError::Io { .. } => e.to_string(),
         _ => format!("{name}: {e}"),
     })?;
-    finish_load(Some(path.to_path_buf()), name, soup)
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    finish_load(Some(path.to_path_buf()), name, soup, sha256_hex(&bytes))
 }
 
 fn finish_load(
     path: Option<PathBuf>,
     name: String,
     soup: crate::mesh::PolygonSoup,
+    sha256: String,
 ) -> Result<LoadedDocument, String> {
     let (mesh, report) = TriMesh::from_soup(&soup).map_err(|e| format!("{name}: {e}"))?;
     let stats = MeshStats::from(&mesh.topology());
@@ -146,18 +161,179 @@ fn finish_load(
     Ok(LoadedDocument {
         path,
         name,
-        mesh,
+        mesh: Arc::new(mesh),
+        to_file: report.original_vertex,
+        file_vertices: soup.positions.len(),
+        sha256,
         warnings: report.warnings,
         stats,
         scene,
     })
 }
 
+/// A project file read together with its mesh (produced by a background job): the mesh's hash
+/// and the edits' vertices are checked against the file before anything is replaced.
+pub struct LoadedProject {
+    pub path: PathBuf,
+    pub project: Project,
+    pub mesh: LoadedDocument,
+}
+
+/// Reads a project and its mesh. Errors name the file (and the edit, for edits).
+pub fn load_project(path: &Path) -> Result<LoadedProject, String> {
+    let project = Project::load(path).map_err(|e| e.to_string())?;
+    let mesh_path = project.mesh_path(path);
+    let bytes = std::fs::read(&mesh_path).map_err(|e| {
+        format!(
+            "{}: cannot read its mesh {}: {e}",
+            path.display(),
+            mesh_path.display()
+        )
+    })?;
+    project
+        .check_mesh(path, &bytes)
+        .map_err(|e| e.to_string())?;
+    let mesh = load_path(&mesh_path)?;
+    project
+        .check_vertices(path, mesh.file_vertices)
+        .map_err(|e| e.to_string())?;
+    Ok(LoadedProject {
+        path: path.to_path_buf(),
+        project,
+        mesh,
+    })
+}
+
+/// The work of one background solve, tagged with the document's edit revision.
+pub struct SolveRequest {
+    pub revision: u64,
+    pub generation: u64,
+    /// Build a new [`Base`] first (the mesh or the settings changed); then every applied edit
+    /// is replayed from the initial state.
+    pub rebuild: Option<Rebuild>,
+    /// The base to use when not rebuilding.
+    pub base: Option<Arc<Base>>,
+    /// Position and state of the newest cached state at or before the cursor (ignored when
+    /// rebuilding).
+    pub start: usize,
+    pub start_state: Option<EditState>,
+    /// The edits to apply after `start` (or all applied edits when rebuilding).
+    pub edits: Vec<Edit>,
+}
+
+/// What a [`Base`] is built from.
+pub struct Rebuild {
+    /// The base for the same mesh with the settings before, whose field a change that does not
+    /// touch it (merge rules, pure quad, rounding) reuses.
+    pub previous: Option<Arc<Base>>,
+    pub mesh: Arc<TriMesh>,
+    pub to_file: Vec<u32>,
+    pub file_vertices: usize,
+    pub settings: Settings,
+}
+
+/// The result of a [`SolveRequest`].
+pub struct SolveOutcome {
+    pub revision: u64,
+    /// The newly built base (when the request rebuilt it).
+    pub base: Option<Arc<Base>>,
+    /// Position of `states[0]`.
+    pub first: usize,
+    /// The states at positions `first..=cursor`.
+    pub states: Vec<EditState>,
+    /// Edits skipped on the way (positions 1-based in the whole list).
+    pub skipped: Vec<Skipped>,
+    /// The solve of the last state, or why it failed.
+    pub solved: Result<Solved, String>,
+}
+
+fn edit_error(e: EditError) -> String {
+    match e {
+        EditError::Cancelled => "cancelled (a newer edit replaced it)".into(),
+        e => e.to_string(),
+    }
+}
+
+impl SolveRequest {
+    /// Runs the request (in a background job): base, edits, solve. `stage` reports progress.
+    pub fn run(
+        self,
+        cancel: crate::edit::Cancel,
+        stage: &dyn Fn(&str),
+    ) -> Result<SolveOutcome, String> {
+        let (base, new_base, first, start_state) = match self.rebuild {
+            Some(r) => {
+                let reused = match &r.previous {
+                    Some(previous) => previous
+                        .with_settings(r.settings.clone())
+                        .map_err(edit_error)?,
+                    None => None,
+                };
+                let base = match reused {
+                    Some(base) => base,
+                    None => {
+                        stage("field and QuadCover analyses");
+                        Base::new(r.mesh, r.to_file, r.file_vertices, r.settings, cancel)
+                            .map_err(edit_error)?
+                    }
+                };
+                let base = Arc::new(base);
+                let initial = base.initial().clone();
+                (base.clone(), Some(base), 0, initial)
+            }
+            None => {
+                let base = self.base.ok_or("no field to edit yet")?;
+                let state = self.start_state.ok_or("no state to start from")?;
+                (base, None, self.start, state)
+            }
+        };
+        if !self.edits.is_empty() {
+            stage(&format!("applying {} edit(s)", self.edits.len()));
+        }
+        let replay = base
+            .replay_from(start_state, first, &self.edits, cancel)
+            .map_err(edit_error)?;
+        let (states, skipped) = (replay.states, replay.skipped);
+        stage("field re-solve and QuadCover");
+        let solved = base
+            .solve(states.last().expect("a state"), cancel)
+            .map_err(edit_error);
+        if cancel() {
+            return Err(edit_error(EditError::Cancelled));
+        }
+        Ok(SolveOutcome {
+            revision: self.revision,
+            base: new_base,
+            first,
+            states,
+            skipped,
+            solved,
+        })
+    }
+}
+
+/// What the last solve produced, besides the field and the map.
+#[derive(Clone, Debug)]
+pub struct SolveInfo {
+    /// The edit revision it was solved for.
+    pub revision: u64,
+    pub e_smooth: f64,
+    pub e_align: f64,
+    pub curl: f64,
+    pub timings: Vec<(String, f64)>,
+}
+
 /// The editor's document.
 pub struct Document {
     pub path: Option<PathBuf>,
     pub name: String,
-    pub mesh: Option<TriMesh>,
+    pub mesh: Option<Arc<TriMesh>>,
+    /// Each mesh vertex's index in the file (`RepairReport::original_vertex`).
+    pub to_file: Vec<u32>,
+    /// The mesh file's vertex count.
+    pub file_vertices: usize,
+    /// SHA-256 of the mesh file's bytes.
+    pub mesh_sha256: Option<String>,
     pub stats: Option<MeshStats>,
     /// Validation / repair warnings of the load.
     pub warnings: Vec<String>,
@@ -175,10 +351,32 @@ pub struct Document {
     pub param_summary: String,
     pub lines: Vec<(LineKind, Vec<[DVec3; 2]>)>,
     pub display: DisplaySettings,
+    /// The solve settings (the project's).
+    pub settings: Settings,
+    /// The core's base for (mesh, settings); `None` until the first solve job built it. While
+    /// a rebuild for new settings runs it may still be the old one ([`Document::base_current`]).
+    pub edit_base: Option<Arc<Base>>,
+    /// The edit list; `edits[..cursor]` are applied, the rest is the redo tail.
+    pub edits: Vec<Edit>,
+    cursor: usize,
+    /// Cached states: `states[i]` after `edits[..i]`, a valid prefix (cleared by a rebuild).
+    states: Vec<EditState>,
+    /// Edits the last replay skipped (a notice in the panel).
+    pub skipped: Vec<Skipped>,
+    /// The state whose solve is shown, and what the solve reported.
+    pub shown_state: Option<EditState>,
+    pub solve_info: Option<SolveInfo>,
+    /// Why the last solve failed (the last good result stays on screen).
+    pub solve_error: Option<String>,
+    /// The project file this document was opened from or saved to.
+    pub project_path: Option<PathBuf>,
+    /// (applied edits, settings) at the last save or open: unsaved changes are a difference.
+    saved: (Vec<Edit>, Settings),
+    edit_revision: u64,
     scene: Option<Arc<SceneData>>,
     generation: u64,
     /// Base scene without field/param/overlays (rebuilt from the mesh once per load).
-    base: Option<SceneData>,
+    base_scene: Option<SceneData>,
     revision: u64,
 }
 
@@ -188,6 +386,9 @@ impl Default for Document {
             path: None,
             name: String::new(),
             mesh: None,
+            to_file: Vec::new(),
+            file_vertices: 0,
+            mesh_sha256: None,
             stats: None,
             warnings: Vec::new(),
             field: None,
@@ -199,21 +400,36 @@ impl Default for Document {
             param_summary: String::new(),
             lines: Vec::new(),
             display: DisplaySettings::default(),
+            settings: Settings::default(),
+            edit_base: None,
+            edits: Vec::new(),
+            cursor: 0,
+            states: Vec::new(),
+            skipped: Vec::new(),
+            shown_state: None,
+            solve_info: None,
+            solve_error: None,
+            project_path: None,
+            saved: (Vec::new(), Settings::default()),
+            edit_revision: 1,
             scene: None,
             generation: 0,
-            base: None,
+            base_scene: None,
             revision: 1,
         }
     }
 }
 
 impl Document {
-    /// Replaces the mesh (drops field, parameterization and overlays).
+    /// Replaces the mesh (drops field, parameterization, overlays, edits and the project).
     pub fn set_loaded(&mut self, loaded: LoadedDocument) {
         self.generation += 1;
         self.path = loaded.path;
         self.name = loaded.name;
         self.mesh = Some(loaded.mesh);
+        self.to_file = loaded.to_file;
+        self.file_vertices = loaded.file_vertices;
+        self.mesh_sha256 = Some(loaded.sha256);
         self.stats = Some(loaded.stats);
         self.warnings = loaded.warnings;
         self.field = None;
@@ -224,9 +440,296 @@ impl Document {
         self.field_summary.clear();
         self.param_summary.clear();
         self.lines.clear();
-        self.base = Some(loaded.scene);
+        self.edit_base = None;
+        self.edits.clear();
+        self.cursor = 0;
+        self.states.clear();
+        self.skipped.clear();
+        self.shown_state = None;
+        self.solve_info = None;
+        self.solve_error = None;
+        self.project_path = None;
+        self.saved = (Vec::new(), self.settings.clone());
+        self.edit_revision += 1;
+        self.base_scene = Some(loaded.scene);
         self.rebuild_scene();
     }
+
+    /// Replaces the mesh by a project's: its settings and edits (all applied). The first
+    /// solve job rebuilds the base and replays them.
+    pub fn set_project(&mut self, loaded: LoadedProject) {
+        self.settings = loaded.project.settings.clone();
+        self.set_loaded(loaded.mesh);
+        self.edits = loaded.project.edits;
+        self.cursor = self.edits.len();
+        self.project_path = Some(loaded.path);
+        self.saved = (self.edits.clone(), self.settings.clone());
+    }
+
+    // ---- the edit list -------------------------------------------------------------------
+
+    /// Increases with every change of what should be solved (edit, undo, redo, settings, load).
+    pub fn edit_revision(&self) -> u64 {
+        self.edit_revision
+    }
+
+    /// Number of applied edits (the undo cursor).
+    pub fn cursor(&self) -> usize {
+        self.cursor
+    }
+
+    pub fn applied_edits(&self) -> &[Edit] {
+        &self.edits[..self.cursor]
+    }
+
+    pub fn can_undo(&self) -> bool {
+        self.cursor > 0
+    }
+
+    pub fn can_redo(&self) -> bool {
+        self.cursor < self.edits.len()
+    }
+
+    /// Whether the base fits the current settings.
+    pub fn base_current(&self) -> bool {
+        self.edit_base
+            .as_ref()
+            .is_some_and(|b| *b.settings() == self.settings)
+    }
+
+    /// The state after the applied edits, when it is known (cached and the base current).
+    pub fn current_state(&self) -> Option<&EditState> {
+        if !self.base_current() {
+            return None;
+        }
+        self.states.get(self.cursor)
+    }
+
+    /// The base and the current state, when edits can be applied on the UI thread.
+    pub fn editable(&self) -> Option<(&Arc<Base>, &EditState)> {
+        Some((self.edit_base.as_ref()?, self.current_state()?))
+    }
+
+    /// Applies an edit: drops the redo tail, appends it, and caches its state when given (a
+    /// move applied on the UI thread); otherwise the solve job applies it.
+    pub fn push_edit(&mut self, edit: Edit, state: Option<EditState>) {
+        self.edits.truncate(self.cursor);
+        self.states.truncate(self.cursor + 1);
+        self.skipped.retain(|s| s.position <= self.cursor);
+        self.edits.push(edit);
+        if let Some(state) = state
+            && self.states.len() == self.cursor + 1
+        {
+            self.states.push(state);
+        }
+        self.cursor += 1;
+        self.edit_revision += 1;
+    }
+
+    pub fn undo(&mut self) -> bool {
+        if !self.can_undo() {
+            return false;
+        }
+        self.cursor -= 1;
+        self.edit_revision += 1;
+        true
+    }
+
+    pub fn redo(&mut self) -> bool {
+        if !self.can_redo() {
+            return false;
+        }
+        self.cursor += 1;
+        self.edit_revision += 1;
+        true
+    }
+
+    /// Changes the solve settings: the base is rebuilt and the edits replayed.
+    pub fn set_settings(&mut self, settings: Settings) {
+        if settings == self.settings {
+            return;
+        }
+        self.settings = settings;
+        self.states.clear();
+        self.edit_revision += 1;
+    }
+
+    /// Whether the applied edits or the settings differ from the last save (or open).
+    pub fn is_dirty(&self) -> bool {
+        self.mesh.is_some()
+            && (self.saved.0.as_slice() != self.applied_edits() || self.saved.1 != self.settings)
+    }
+
+    /// Whether the shown solve is for the current edit revision.
+    pub fn solve_current(&self) -> bool {
+        self.solve_info
+            .as_ref()
+            .is_some_and(|i| i.revision == self.edit_revision)
+    }
+
+    /// The work that brings the shown result up to the current revision (`None` without mesh).
+    pub fn solve_request(&self) -> Option<SolveRequest> {
+        let mesh = self.mesh.clone()?;
+        let mut req = SolveRequest {
+            revision: self.edit_revision,
+            generation: self.generation,
+            rebuild: None,
+            base: None,
+            start: 0,
+            start_state: None,
+            edits: Vec::new(),
+        };
+        if self.base_current() && !self.states.is_empty() {
+            let start = self.cursor.min(self.states.len() - 1);
+            req.base = self.edit_base.clone();
+            req.start = start;
+            req.start_state = Some(self.states[start].clone());
+            req.edits = self.edits[start..self.cursor].to_vec();
+        } else {
+            req.rebuild = Some(Rebuild {
+                previous: self.edit_base.clone(),
+                mesh,
+                to_file: self.to_file.clone(),
+                file_vertices: self.file_vertices,
+                settings: self.settings.clone(),
+            });
+            req.edits = self.applied_edits().to_vec();
+        }
+        Some(req)
+    }
+
+    /// Takes a solve job's outcome; `false` (and nothing changes) when it is stale. On a
+    /// failed solve the states are kept, the last good result stays shown, and
+    /// [`Document::solve_error`] says why.
+    pub fn take_outcome(&mut self, outcome: SolveOutcome) -> bool {
+        if outcome.revision != self.edit_revision {
+            return false;
+        }
+        if let Some(base) = outcome.base {
+            self.edit_base = Some(base);
+            self.states.clear();
+            self.skipped.clear();
+        }
+        // The edit list is the one the request saw (same revision): cached states stay, the
+        // new ones extend the valid prefix.
+        for (i, state) in outcome.states.into_iter().enumerate() {
+            if outcome.first + i == self.states.len() {
+                self.states.push(state);
+            }
+        }
+        self.skipped.retain(|s| s.position <= outcome.first);
+        self.skipped.extend(outcome.skipped);
+        match outcome.solved {
+            Ok(solved) => {
+                self.solve_error = None;
+                let state = self.states.get(self.cursor).cloned();
+                self.set_solved(solved, state);
+            }
+            Err(e) => self.solve_error = Some(e),
+        }
+        true
+    }
+
+    /// Shows a solved state: field, parameterization, cut graph, glyphs (one scene rebuild).
+    fn set_solved(&mut self, solved: Solved, state: Option<EditState>) {
+        let singularities: Vec<(usize, i32)> = match &state {
+            Some(s) => s.singularities.iter().map(|(&v, &k)| (v, k)).collect(),
+            None => solved
+                .indices
+                .singularities
+                .iter()
+                .map(|s| (s.vertex, s.k))
+                .collect(),
+        };
+        let display = FieldDisplay::from_frame_field(&solved.field, singularities);
+        self.field_summary = format!(
+            "N = {}, {} singularities, E_smooth {:.3e}",
+            display.symmetry,
+            display.singularities.len(),
+            solved.e_smooth
+        );
+        let p = solved.param;
+        self.solve_info = Some(SolveInfo {
+            revision: self.edit_revision,
+            e_smooth: solved.e_smooth,
+            e_align: solved.e_align,
+            curl: p.curl,
+            timings: solved.timings,
+        });
+        self.param_analysis = self.edit_base.as_ref().map(|b| b.analysis().clone());
+        self.frame_field = Some(solved.field);
+        self.field = Some(display);
+        self.shown_state = state;
+        self.set_parameterization(p);
+    }
+
+    /// The project for saving to `project_path`: the mesh relative to it, its hash, the
+    /// settings and the applied edits. The embedded default mesh has no file: it is written
+    /// beside the project first (unless a file of that name is there already).
+    pub fn project_for(&self, project_path: &Path) -> Result<Project, String> {
+        let mesh_file = match &self.path {
+            Some(p) => p.clone(),
+            None if self.name == DEFAULT_MESH_NAME => {
+                let p = project_path
+                    .parent()
+                    .unwrap_or(Path::new(""))
+                    .join(DEFAULT_MESH_NAME);
+                match std::fs::read(&p) {
+                    Ok(bytes) if bytes == DEFAULT_MESH_OBJ => {}
+                    Ok(_) => {
+                        return Err(format!(
+                            "{} is another mesh than the default one: save the project elsewhere",
+                            p.display()
+                        ));
+                    }
+                    Err(_) => crate::io::write_atomic(&p, |w| {
+                        std::io::Write::write_all(w, DEFAULT_MESH_OBJ)
+                    })
+                    .map_err(|e| format!("{}: {e}", p.display()))?,
+                }
+                p
+            }
+            None => return Err("the mesh has no file to refer to".into()),
+        };
+        let sha256 = match (&self.path, &self.mesh_sha256) {
+            (Some(_), Some(h)) => h.clone(),
+            _ => sha256_hex(
+                &std::fs::read(&mesh_file).map_err(|e| format!("{}: {e}", mesh_file.display()))?,
+            ),
+        };
+        let mut project = Project::new(
+            MeshRef {
+                path: relative_mesh_path(project_path, &mesh_file),
+                sha256: Some(sha256),
+            },
+            self.settings.clone(),
+        );
+        project.edits = self.applied_edits().to_vec();
+        Ok(project)
+    }
+
+    /// Saves the project (atomically) and remembers the path; the document is then clean.
+    pub fn save_project(&mut self, project_path: &Path) -> Result<(), String> {
+        let project = self.project_for(project_path)?;
+        project.save(project_path).map_err(|e| e.to_string())?;
+        self.project_path = Some(project_path.to_path_buf());
+        self.saved = (project.edits, project.settings);
+        Ok(())
+    }
+
+    /// Singularities of the current state as (file vertex, k), by file vertex.
+    pub fn file_singularities(&self) -> Option<Vec<(usize, i32)>> {
+        let (base, state) = self.editable()?;
+        let mut v: Vec<(usize, i32)> = state
+            .singularities
+            .iter()
+            .map(|(&m, &k)| (base.file_vertex(m), k))
+            .collect();
+        v.sort_unstable();
+        Some(v)
+    }
+
+    // ---- display -------------------------------------------------------------------------
 
     /// Sets (or clears) the field; the viewport picks it up next frame.
     pub fn set_field(&mut self, field: Option<FieldDisplay>) {
@@ -265,11 +768,12 @@ impl Document {
             }
         }
         self.param_summary = format!(
-            "{} cut paths, {} flipped faces, seam error {:.1e}, conformal distortion {:.3}",
+            "{} cut paths, {} flipped faces, seam error {:.1e}, conformal distortion {:.3}, curl {:.3}",
             p.cut_paths.len(),
             p.flipped_faces,
             p.seam_max_error,
-            p.conformal_distortion.mean
+            p.conformal_distortion.mean,
+            p.curl
         );
         self.param = Some(ParamDisplay {
             corner_uvs: p.uv.clone(),
@@ -313,7 +817,7 @@ impl Document {
 
     fn rebuild_scene(&mut self) {
         self.revision += 1;
-        let Some(base) = &self.base else {
+        let Some(base) = &self.base_scene else {
             self.scene = None;
             return;
         };

@@ -1,12 +1,13 @@
 //! Background jobs: a closure runs on its own thread and sends one result back
 //! through a channel. The UI polls every frame and never blocks on a solver.
 
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::mpsc::{Receiver, TryRecvError, channel};
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
-use super::document::{FieldDisplay, LoadedDocument, ParamDisplay};
+use super::document::{FieldDisplay, LoadedDocument, LoadedProject, ParamDisplay, SolveOutcome};
+use super::picking::Picker;
 
 /// What a job produces.
 pub enum JobOutput {
@@ -23,6 +24,12 @@ pub enum JobOutput {
     ),
     /// A file was written; the message says what and where.
     Exported(String),
+    /// A project and its mesh were read and checked.
+    ProjectLoaded(Box<LoadedProject>),
+    /// A solve of the document's edits (see [`super::document::SolveRequest`]).
+    Solved(Box<SolveOutcome>),
+    /// The picking BVH of the current mesh.
+    Picker(Arc<Picker>),
 }
 
 /// Shared progress of a running job: a fraction in [0, 1] (or unknown) and a
@@ -32,6 +39,8 @@ pub struct Progress {
     /// Fraction * 1e6, or u32::MAX when unknown.
     fraction: AtomicU32,
     cancel: AtomicBool,
+    /// What the job is doing now (shown beside its name).
+    stage: Mutex<String>,
 }
 
 impl Progress {
@@ -50,6 +59,16 @@ impl Progress {
     pub fn cancelled(&self) -> bool {
         self.cancel.load(Ordering::Relaxed)
     }
+
+    pub fn set_stage(&self, stage: &str) {
+        if let Ok(mut s) = self.stage.lock() {
+            stage.clone_into(&mut s);
+        }
+    }
+
+    pub fn stage(&self) -> String {
+        self.stage.lock().map(|s| s.clone()).unwrap_or_default()
+    }
 }
 
 /// A running job.
@@ -58,6 +77,8 @@ pub struct Job {
     /// Mesh generation the job works on (`None`: independent of the current mesh).
     /// Results for an older generation are discarded.
     pub generation: Option<u64>,
+    /// For solve jobs: the document's edit revision they solve (older ones are dropped).
+    pub revision: Option<u64>,
     pub started: Instant,
     pub progress: Arc<Progress>,
     rx: Receiver<Result<JobOutput, String>>,
@@ -73,6 +94,7 @@ impl Job {
         let progress = Arc::new(Progress {
             fraction: AtomicU32::new(u32::MAX),
             cancel: AtomicBool::new(false),
+            stage: Mutex::new(String::new()),
         });
         let p = Arc::clone(&progress);
         let name = name.into();
@@ -98,6 +120,7 @@ impl Job {
         Job {
             name,
             generation: None,
+            revision: None,
             started: Instant::now(),
             progress,
             rx,
@@ -108,6 +131,17 @@ impl Job {
     pub fn for_generation(mut self, generation: u64) -> Job {
         self.generation = Some(generation);
         self
+    }
+
+    /// Tags a solve job with the edit revision it solves.
+    pub fn for_revision(mut self, revision: u64) -> Job {
+        self.revision = Some(revision);
+        self
+    }
+
+    /// Whether [`Job::cancel`] was called.
+    pub fn cancelled(&self) -> bool {
+        self.progress.cancelled()
     }
 
     /// `Some(result)` once the job has finished.

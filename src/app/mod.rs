@@ -1,24 +1,39 @@
 //! The desktop editor (eframe + wgpu). Everything GPU/GUI lives here; the core
 //! knows nothing about it.
 //!
-//! - [`document::Document`]: the one state type (mesh, load report, field,
-//!   parameterization, overlays, display settings).
+//! - [`document::Document`]: the one state type (mesh, load report, settings, the edit list
+//!   with its undo cursor, the core's base and cached states, the solved field and
+//!   parameterization shown, overlays, display settings, project path and saved marker).
 //! - [`jobs::Job`]: background work on its own thread, results via a channel.
+//! - [`picking`]: camera rays and BVH ray casts, for every tool; [`tools`]: the viewport's
+//!   interaction modes (one file per tool), which hand one edit to the document per gesture.
+//! - [`editor`] wires the menus ([`menus`]), the side panel ([`panels`]), the viewport
+//!   ([`view_ui`]), the file actions ([`files`]), the edit pipeline ([`edits`]) and the
+//!   individual stages ([`stages`]).
 //! - [`render::Renderer`]: the wgpu renderer, shared by the viewport
 //!   ([`viewport`]) and offscreen rendering ([`render::Offscreen`]).
 
 pub mod camera;
 pub mod document;
 pub mod editor;
+mod edits;
+pub mod files;
 pub mod jobs;
+mod menus;
+mod panels;
+pub mod picking;
 pub mod render;
 pub mod scene;
 pub mod settings;
+mod stages;
+pub mod tools;
+mod view_ui;
 pub mod viewport;
 
 pub use editor::{EditorApp, EditorOptions};
 
-/// Opens the editor window. With `None` it shows the embedded default mesh (Spot).
+/// Opens the editor window. With `None` it shows the embedded default mesh (Spot); a `.json`
+/// path opens a project.
 pub fn run_editor(path: Option<std::path::PathBuf>) -> eframe::Result<()> {
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()

@@ -228,8 +228,17 @@ pub struct Renderer {
     sampler: wgpu::Sampler,
     pattern_view: wgpu::TextureView,
     scene: Option<GpuScene>,
+    /// Transient overlay of the active tool (hover highlight, drag preview), drawn over the
+    /// scene; small, so it is uploaded separately from the scene whenever it changes.
+    overlay: Option<GpuOverlay>,
     /// Number of scene uploads so far (lets tests check buffers are not rebuilt per frame).
     pub uploads: u64,
+}
+
+/// Buffers of the transient overlay.
+struct GpuOverlay {
+    lines: Option<(wgpu::Buffer, u32)>,
+    glyphs: Option<(wgpu::Buffer, u32)>,
 }
 
 /// A pipeline drawing one fullscreen triangle (no vertex buffers, no depth): the LIC pass and
@@ -569,6 +578,7 @@ impl Renderer {
             sampler,
             pattern_view,
             scene: None,
+            overlay: None,
             uploads: 0,
         }
     }
@@ -617,6 +627,32 @@ impl Renderer {
 
     pub fn clear_scene(&mut self) {
         self.scene = None;
+    }
+
+    /// Replaces the tool overlay (lines and glyphs drawn over the scene; empty clears it).
+    pub fn set_overlay(&mut self, device: &wgpu::Device, lines: &[LineSegment], glyphs: &[Glyph]) {
+        let instances = |label, bytes: &[u8], n: usize| {
+            (n > 0).then(|| {
+                let b = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: bytes,
+                    usage: wgpu::BufferUsages::VERTEX,
+                });
+                (b, n as u32)
+            })
+        };
+        self.overlay = (!lines.is_empty() || !glyphs.is_empty()).then(|| GpuOverlay {
+            lines: instances(
+                "quadcover overlay lines",
+                bytemuck::cast_slice(lines),
+                lines.len(),
+            ),
+            glyphs: instances(
+                "quadcover overlay glyphs",
+                bytemuck::cast_slice(glyphs),
+                glyphs.len(),
+            ),
+        });
     }
 
     pub fn has_scene(&self) -> bool {
@@ -777,6 +813,20 @@ impl Renderer {
             pass.set_bind_group(0, &self.overlay_bind_group, &[]);
             pass.set_vertex_buffer(0, buf.slice(..));
             pass.draw(0..6, 0..*n);
+        }
+        if let Some(overlay) = &self.overlay {
+            if let Some((buf, n)) = &overlay.lines {
+                pass.set_pipeline(&self.line_pipeline);
+                pass.set_bind_group(0, &self.overlay_bind_group, &[]);
+                pass.set_vertex_buffer(0, buf.slice(..));
+                pass.draw(0..6, 0..*n);
+            }
+            if let Some((buf, n)) = &overlay.glyphs {
+                pass.set_pipeline(&self.glyph_pipeline);
+                pass.set_bind_group(0, &self.overlay_bind_group, &[]);
+                pass.set_vertex_buffer(0, buf.slice(..));
+                pass.draw(0..6, 0..*n);
+            }
         }
     }
 }

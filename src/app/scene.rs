@@ -39,6 +39,15 @@ pub struct Glyph {
     pub color: [f32; 4],
 }
 
+/// The active tool's transient overlay (drag preview), uploaded apart from the scene so a
+/// change does not re-upload the mesh. `revision` changes whenever the content does.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Overlay {
+    pub revision: u64,
+    pub lines: Vec<LineSegment>,
+    pub glyphs: Vec<Glyph>,
+}
+
 /// Everything the renderer uploads for one version of the document.
 #[derive(Clone, Debug, Default)]
 pub struct SceneData {

@@ -9,7 +9,7 @@ use super::render::{
     BLIT_WGSL, RenderTarget, Renderer, fragment_sampler_entry, fragment_texture_entry,
     fullscreen_pipeline,
 };
-use super::scene::SceneData;
+use super::scene::{Overlay, SceneData};
 use super::settings::DisplaySettings;
 
 /// Lives in `egui_wgpu::CallbackResources`.
@@ -22,6 +22,8 @@ pub struct ViewportResources {
     blit_bind_group: Option<wgpu::BindGroup>,
     /// Revision of the scene currently uploaded.
     pub scene_revision: Option<u64>,
+    /// Revision of the tool overlay currently uploaded.
+    pub overlay_revision: Option<u64>,
 }
 
 impl ViewportResources {
@@ -65,6 +67,7 @@ impl ViewportResources {
             blit_sampler,
             blit_bind_group: None,
             scene_revision: None,
+            overlay_revision: None,
         }
     }
 
@@ -105,6 +108,19 @@ impl ViewportResources {
         }
         self.scene_revision = Some(revision);
     }
+
+    /// Uploads the tool overlay unless its revision is already on the GPU.
+    pub fn sync_overlay(&mut self, device: &wgpu::Device, overlay: Option<&Overlay>) {
+        let revision = overlay.map(|o| o.revision);
+        if self.overlay_revision == revision {
+            return;
+        }
+        match overlay {
+            Some(o) => self.renderer.set_overlay(device, &o.lines, &o.glyphs),
+            None => self.renderer.set_overlay(device, &[], &[]),
+        }
+        self.overlay_revision = revision;
+    }
 }
 
 /// One frame's request. Cheap to build every frame: the scene is shared and
@@ -115,6 +131,8 @@ pub struct ViewportCallback {
     pub size_px: [u32; 2],
     pub revision: u64,
     pub scene: Option<Arc<SceneData>>,
+    /// The active tool's overlay (drag preview).
+    pub overlay: Option<Arc<Overlay>>,
 }
 
 impl egui_wgpu::CallbackTrait for ViewportCallback {
@@ -130,6 +148,7 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
             return Vec::new();
         };
         res.sync_scene(device, self.revision, self.scene.as_deref());
+        res.sync_overlay(device, self.overlay.as_deref());
         res.ensure_target(device, self.size_px[0], self.size_px[1]);
         if let Some(target) = &res.target {
             res.renderer

@@ -1,0 +1,165 @@
+//! The viewport panel: the camera's mouse input, the active tool's events and hints, and the
+//! wgpu paint callback.
+
+use super::editor::EditorApp;
+use super::picking::View;
+use super::tools::{ToolContext, ToolEvent, ToolOutput};
+use super::viewport::ViewportCallback;
+
+impl EditorApp {
+    pub(super) fn viewport(&mut self, ui: &mut egui::Ui) {
+        let rect = ui.available_rect_before_wrap();
+        let response = ui.allocate_rect(rect, egui::Sense::click_and_drag());
+        let ppp = ui.ctx().pixels_per_point();
+        self.viewport_px = [
+            (rect.width() * ppp).round().max(1.0) as u32,
+            (rect.height() * ppp).round().max(1.0) as u32,
+        ];
+        let fit_rect =
+            egui::Rect::from_min_size(rect.min + egui::vec2(8.0, 8.0), egui::vec2(60.0, 22.0));
+        let view = View {
+            camera: self.camera,
+            rect,
+        };
+        self.last_view = view;
+
+        // The tool sees the pointer first; a press it does not claim orbits the camera.
+        let (pos, pressed, released, down, moved, shift) = ui.input(|i| {
+            (
+                i.pointer.interact_pos().or(i.pointer.hover_pos()),
+                i.pointer.primary_pressed(),
+                i.pointer.primary_released(),
+                i.pointer.primary_down(),
+                i.pointer.delta() != egui::Vec2::ZERO || i.pointer.is_moving(),
+                i.modifiers.shift,
+            )
+        });
+        let escape =
+            !ui.ctx().egui_wants_keyboard_input() && ui.input(|i| i.key_pressed(egui::Key::Escape));
+        let over = pos
+            .filter(|p| rect.contains(*p) && !fit_rect.contains(*p) && response.contains_pointer());
+        let picker = {
+            let mesh = self.document.mesh.as_ref();
+            self.picker
+                .as_deref()
+                .filter(|p| mesh.is_some_and(|m| p.is_for(m)))
+        };
+        let cx = ToolContext {
+            view,
+            document: &self.document,
+            picker,
+        };
+        let mut out = ToolOutput::default();
+        let mut feed = |tool: &mut Box<dyn super::tools::Tool>, ev: ToolEvent| {
+            let o = tool.event(&cx, ev);
+            out.captured |= o.captured;
+            if o.commit.is_some() {
+                out.commit = o.commit;
+            }
+            if o.status.is_some() {
+                out.status = o.status;
+            }
+        };
+        if escape {
+            feed(&mut self.tool, ToolEvent::Cancel);
+        }
+        let mut hold = false;
+        if self.tool.active() {
+            if let Some(p) = pos {
+                if released || !down {
+                    feed(&mut self.tool, ToolEvent::Release(p));
+                } else if moved {
+                    feed(&mut self.tool, ToolEvent::Drag(p));
+                } else {
+                    hold = true;
+                }
+            }
+        } else if pressed
+            && !shift
+            && let Some(p) = over
+        {
+            feed(&mut self.tool, ToolEvent::Press(p));
+        } else if !down {
+            feed(&mut self.tool, ToolEvent::Hover(over));
+        }
+        out.captured |= hold;
+        let captured = out.captured || self.tool.active();
+
+        // camera input
+        let delta = response.drag_delta();
+        if !captured {
+            if response.dragged_by(egui::PointerButton::Primary) && !shift {
+                self.camera.orbit(delta.x, delta.y);
+            } else if response.dragged_by(egui::PointerButton::Middle)
+                || response.dragged_by(egui::PointerButton::Secondary)
+                || (response.dragged_by(egui::PointerButton::Primary) && shift)
+            {
+                self.camera.pan(delta.x, delta.y, rect.height());
+            }
+        }
+        if response.hovered() {
+            let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+            if scroll != 0.0 {
+                self.camera.zoom((-scroll * 0.002).exp());
+            }
+        }
+        if !ui.ctx().egui_wants_keyboard_input() && ui.input(|i| i.key_pressed(egui::Key::F)) {
+            self.fit();
+        }
+
+        if self.has_wgpu {
+            let cb = ViewportCallback {
+                camera: self.camera,
+                settings: self.document.display.clone(),
+                size_px: self.viewport_px,
+                revision: self.document.revision(),
+                scene: self.document.scene().cloned(),
+                overlay: self.tool.overlay(),
+            };
+            ui.painter()
+                .add(egui_wgpu::Callback::new_paint_callback(rect, cb));
+        } else {
+            ui.painter().text(
+                rect.center(),
+                egui::Align2::CENTER_CENTER,
+                "wgpu is not available",
+                egui::FontId::proportional(16.0),
+                egui::Color32::GRAY,
+            );
+        }
+        // the tool's hints, with the camera of this frame
+        let cx = ToolContext {
+            view: View {
+                camera: self.camera,
+                rect,
+            },
+            document: &self.document,
+            picker: None,
+        };
+        self.tool.paint(&cx, ui);
+
+        if ui.put(fit_rect, egui::Button::new("Fit (F)")).clicked() {
+            self.fit();
+        }
+        if self.busy() {
+            let r = egui::Rect::from_min_size(
+                rect.right_top() + egui::vec2(-32.0, 8.0),
+                egui::vec2(24.0, 24.0),
+            );
+            ui.put(r, egui::Spinner::new());
+        }
+
+        if let Some(s) = out.status {
+            if out.commit.is_none() && !s.contains("cancelled") {
+                // a refusal: shown once, as the panel's notice
+                self.status = "Move refused (see Edits)".into();
+                self.notice = Some(s);
+            } else {
+                self.status = s;
+            }
+        }
+        if let Some(edit) = out.commit {
+            self.commit_edit(edit);
+        }
+    }
+}
