@@ -25,7 +25,7 @@ use crate::field::transport::NO_FACE;
 use crate::sparse::{SparseBuilder, SpdSolver};
 
 /// Sweeps over all singularities per round, and rounds of (sweeps, merges).
-const MAX_SWEEPS: usize = 40;
+const MAX_SWEEPS: usize = 20;
 const MAX_ROUNDS: usize = 2;
 /// Patch radius in grid cells, and the largest patch.
 const PATCH_CELLS: f64 = 2.0;
@@ -50,6 +50,10 @@ struct Scratch {
     /// Local index of a face in the current patch, or u32::MAX.
     local: Vec<u32>,
     search: PathSearch,
+    /// Vertices a singularity has left during this relax: no singularity moves back onto
+    /// them, so the sweeps cannot cycle (the released weights change the estimate between
+    /// visits, and a singularity could otherwise step back and forth until MAX_SWEEPS).
+    left: Vec<bool>,
 }
 
 pub(crate) fn relax(
@@ -66,6 +70,7 @@ pub(crate) fn relax(
     let mut scratch = Scratch {
         local: vec![u32::MAX; mesh.n_faces()],
         search: PathSearch::new(mesh.n_vertices()),
+        left: vec![false; mesh.n_vertices()],
     };
     let ctx = Ctx {
         base,
@@ -246,6 +251,7 @@ impl Ctx<'_> {
                     w[f] = 0.0;
                 }
                 st = next;
+                scratch.left[p] = true;
                 for v in [p, q] {
                     blocked[v] = true;
                     for h in mesh.outgoing(v) {
@@ -276,7 +282,9 @@ impl Ctx<'_> {
         let candidates: Vec<usize> = mesh
             .outgoing(p)
             .map(|h| mesh.to(h))
-            .filter(|&q| !mesh.is_boundary_vertex(q) && !st.singularities.contains_key(&q))
+            .filter(|&q| {
+                !mesh.is_boundary_vertex(q) && !st.singularities.contains_key(&q) && !scratch.left[q]
+            })
             .collect();
         if candidates.is_empty() {
             return Ok(None);
