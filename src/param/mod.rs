@@ -35,6 +35,8 @@ pub mod bench;
 
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 use glam::DVec3;
 use serde::Serialize;
 use thiserror::Error;
@@ -422,7 +424,9 @@ impl QuadCover {
             .collect();
         let seam_max_error = metrics::seam_error(mesh, &self.rots, &uv, &trans, self.lattice);
         let q = metrics::quality(mesh, &uv);
+        // In parallel (an index per vertex, 50 ms at 70 k faces alone); the order is kept.
         let singularities = (0..mesh.n_vertices())
+            .into_par_iter()
             .filter(|&v| !mesh.is_boundary_vertex(v))
             .map(|v| Singularity {
                 vertex: v,
