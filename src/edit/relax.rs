@@ -29,13 +29,13 @@ const MAX_SWEEPS: usize = 20;
 const MAX_ROUNDS: usize = 2;
 /// Patch radius in grid cells, and the largest patch.
 const PATCH_CELLS: f64 = 2.0;
-const MAX_PATCH_FACES: usize = 4000;
+const MAX_PATCH_FACES: usize = 2000;
 /// A candidate must lower the patch's curl estimate by this fraction.
 const MIN_GAIN: f64 = 1e-6;
 /// Exact evaluations (each a local-step factorization, whose cost grows with the mesh) per
 /// relax, for merges and where the estimate finds no improving move: about this many faces'
 /// worth in all, between 4 and 32 evaluations.
-const EXACT_FACES: usize = 1_500_000;
+const EXACT_FACES: usize = 800_000;
 
 pub(crate) struct RelaxOutcome {
     pub state: EditState,
@@ -103,9 +103,9 @@ pub(crate) fn relax(
                 improved = true;
             }
         }
-        if !improved {
-            // Where the estimate finds nothing (or misleads), moves are tried on the exact curl,
-            // within a budget of local-step factorizations.
+        if !improved && moves + merges == 0 {
+            // Where the estimate finds nothing (or misleads from the start), moves are tried on
+            // the exact curl, within a budget of local-step factorizations.
             let singular: Vec<usize> = best.singularities.keys().copied().collect();
             'singular: for p in singular {
                 let mesh = base.mesh();
