@@ -204,25 +204,21 @@ fn scripted_moves_merges_and_cancellations_on_spot() {
             ..Settings::default()
         },
     );
-    let replay = strict
-        .replay(
-            &[
-                Edit::MoveSingularity {
-                    from: fv(p),
-                    to: fv(q),
-                },
-                Edit::MoveSingularity {
-                    from: fv(a),
-                    to: fv(b),
-                },
-                Edit::MoveSingularity {
-                    from: fv(pos[0]),
-                    to: fv(pos[1]),
-                },
-            ],
-            &quadcover::edit::never,
-        )
-        .unwrap();
+    let script = [
+        Edit::MoveSingularity {
+            from: fv(p),
+            to: fv(q),
+        },
+        Edit::MoveSingularity {
+            from: fv(a),
+            to: fv(b),
+        },
+        Edit::MoveSingularity {
+            from: fv(pos[0]),
+            to: fv(pos[1]),
+        },
+    ];
+    let replay = strict.replay(&script, &quadcover::edit::never).unwrap();
     assert_eq!(replay.skipped.len(), 1, "{:?}", replay.skipped);
     assert_eq!(replay.skipped[0].position, 3);
     assert!(
@@ -236,25 +232,7 @@ fn scripted_moves_merges_and_cancellations_on_spot() {
         .with_settings(strict.settings().clone())
         .unwrap()
         .unwrap();
-    let again = reused
-        .replay(
-            &[
-                Edit::MoveSingularity {
-                    from: fv(p),
-                    to: fv(q),
-                },
-                Edit::MoveSingularity {
-                    from: fv(a),
-                    to: fv(b),
-                },
-                Edit::MoveSingularity {
-                    from: fv(pos[0]),
-                    to: fv(pos[1]),
-                },
-            ],
-            &quadcover::edit::never,
-        )
-        .unwrap();
+    let again = reused.replay(&script, &quadcover::edit::never).unwrap();
     assert_eq!(again.states, replay.states);
     assert_eq!(again.skipped, replay.skipped);
     let tau = Settings {

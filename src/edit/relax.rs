@@ -122,10 +122,7 @@ pub(crate) fn relax(
                     };
                     budget -= 1;
                     let candidate = base.commit(&best, &mv);
-                    let c = base.curl(&candidate)?;
-                    if c < best_curl {
-                        best = candidate;
-                        best_curl = c;
+                    if take_if_lower(base, &mut best, &mut best_curl, candidate)? {
                         moves += 1;
                         improved = true;
                         continue 'singular;
@@ -151,10 +148,7 @@ pub(crate) fn relax(
                 }
                 budget -= 1;
                 let candidate = base.commit(&best, &mv);
-                let c = base.curl(&candidate)?;
-                if c < best_curl {
-                    best = candidate;
-                    best_curl = c;
+                if take_if_lower(base, &mut best, &mut best_curl, candidate)? {
                     merges += 1;
                     merged = true;
                 }
@@ -169,6 +163,22 @@ pub(crate) fn relax(
         moves,
         merges,
     })
+}
+
+/// Takes `candidate` as the best state when its exact curl is lower than the best's.
+fn take_if_lower(
+    base: &Base,
+    best: &mut EditState,
+    best_curl: &mut f64,
+    candidate: EditState,
+) -> Result<bool, EditError> {
+    let c = base.curl(&candidate)?;
+    if c < *best_curl {
+        *best = candidate;
+        *best_curl = c;
+        return Ok(true);
+    }
+    Ok(false)
 }
 
 /// Pairs of singularities closer than `radius` (3-D distance), nearest first, each vertex in at
@@ -283,7 +293,9 @@ impl Ctx<'_> {
             .outgoing(p)
             .map(|h| mesh.to(h))
             .filter(|&q| {
-                !mesh.is_boundary_vertex(q) && !st.singularities.contains_key(&q) && !scratch.left[q]
+                !mesh.is_boundary_vertex(q)
+                    && !st.singularities.contains_key(&q)
+                    && !scratch.left[q]
             })
             .collect();
         if candidates.is_empty() {
