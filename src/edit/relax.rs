@@ -10,10 +10,14 @@
 //! only in the right-hand side), and the curl is measured per edge as the diagonal estimate
 //! c_e² / L_ee of what the local step removes (c_e = curl* of the edge, L_ee the diagonal of the
 //! local step's Crouzeix–Raviart system). A move is taken when it lowers that estimate; sweeps
-//! repeat until no singularity moves. Then opposite-index pairs closer than
-//! `relax_merge_within` grid cells are merged (same-index pairs too when the merge rules allow
-//! the sum), and the sweeps run again. Everything runs sequentially in a fixed order, so a
-//! relax replays bit for bit.
+//! repeat until no singularity moves (a singularity never returns to a vertex one left, so they
+//! cannot cycle). Their result is kept only when the exact curl ([`Base::curl`], the local
+//! step's) is lower; where the estimate finds nothing at all, single moves are tried on the
+//! exact curl within a budget of local-step factorizations. Then pairs closer than
+//! `relax_merge_within` grid cells are merged, opposite indices first (same-index pairs when the
+//! merge rules allow the sum), each kept only when the exact curl drops, and the sweeps run once
+//! more. So relax never raises the curl and never adds singularities. Everything runs
+//! sequentially in a fixed order, so a relax replays bit for bit.
 
 use std::collections::{BTreeMap, VecDeque};
 
@@ -94,14 +98,9 @@ pub(crate) fn relax(
         }
         let (swept, moved) = ctx.sweeps(&best, &mut scratch, cancel)?;
         let mut improved = false;
-        if moved > 0 {
-            let c = base.curl(&swept)?;
-            if c < best_curl {
-                best = swept;
-                best_curl = c;
-                moves += moved;
-                improved = true;
-            }
+        if moved > 0 && take_if_lower(base, &mut best, &mut best_curl, swept)? {
+            moves += moved;
+            improved = true;
         }
         if !improved && moves + merges == 0 {
             // Where the estimate finds nothing (or misleads from the start), moves are tried on
