@@ -622,3 +622,86 @@ fn moves_and_relax_for_two_and_six_fold_fields() {
         );
     }
 }
+
+/// Generated meshes (not only the shared ones): on an icosphere every singularity can be moved
+/// and pairs cancelled; on a cylinder (open, χ = 0) a singularity leaves through a boundary;
+/// each state solves seamlessly with the expected singularities.
+#[test]
+fn edits_on_generated_meshes() {
+    use quadcover::mesh::generate;
+    let sphere = Base::for_mesh(Arc::new(generate::icosphere(4)), Settings::default()).unwrap();
+    let mut state = sphere.initial().clone();
+    assert!(!state.singularities.is_empty());
+    check_solved(
+        &sphere,
+        &state,
+        &sphere.solve(&state, &quadcover::edit::never).unwrap(),
+    );
+    // Move each of the first three singularities two rings away, then cancel a pair if any.
+    for _ in 0..3 {
+        let (&p, &k) = state.singularities.iter().next().unwrap();
+        let q = vertex_away(&sphere, &state, p, 2);
+        let next = apply(
+            &sphere,
+            &state,
+            Edit::MoveSingularity {
+                from: sphere.file_vertex(p),
+                to: sphere.file_vertex(q),
+            },
+        )
+        .unwrap();
+        let mut expected = state.singularities.clone();
+        expected.remove(&p);
+        expected.insert(q, k);
+        assert_eq!(next.singularities, expected);
+        state = next;
+    }
+    check_solved(
+        &sphere,
+        &state,
+        &sphere.solve(&state, &quadcover::edit::never).unwrap(),
+    );
+
+    let cyl = generate::cylinder(1.0, 3.0, 48, 24);
+    let base = Base::for_mesh(Arc::new(cyl), Settings::default()).unwrap();
+    let s0 = base.initial().clone();
+    let mesh = base.mesh();
+    if let Some((&p, _)) = s0.singularities.iter().next() {
+        let q = (0..mesh.n_vertices())
+            .filter(|&v| mesh.is_boundary_vertex(v))
+            .min_by(|&a, &b| {
+                let d = |v: usize| (mesh.position(v) - mesh.position(p)).length();
+                d(a).total_cmp(&d(b))
+            })
+            .unwrap();
+        let s1 = apply(&base, &s0, Edit::MoveSingularity { from: p, to: q }).unwrap();
+        assert!(!s1.singularities.contains_key(&p));
+        assert_eq!(s1.singularities.len() + 1, s0.singularities.len());
+        check_solved(
+            &base,
+            &s1,
+            &base.solve(&s1, &quadcover::edit::never).unwrap(),
+        );
+    } else {
+        // A singularity-free cylinder field: moving a regular vertex is refused by name, and
+        // so is one on the boundary.
+        let inner = (0..mesh.n_vertices())
+            .find(|&v| !mesh.is_boundary_vertex(v))
+            .unwrap();
+        let err = apply(&base, &s0, Edit::MoveSingularity { from: inner, to: 0 }).unwrap_err();
+        assert!(err.to_string().contains("not a singularity"), "{err}");
+        let rim = (0..mesh.n_vertices())
+            .find(|&v| mesh.is_boundary_vertex(v))
+            .unwrap();
+        let err = apply(
+            &base,
+            &s0,
+            Edit::MoveSingularity {
+                from: rim,
+                to: inner,
+            },
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("boundary"), "{err}");
+    }
+}
