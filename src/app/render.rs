@@ -594,16 +594,7 @@ impl Renderer {
             },
             usage: wgpu::BufferUsages::VERTEX,
         });
-        let instances = |label, bytes: &[u8], n: usize| {
-            (n > 0).then(|| {
-                let b = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents: bytes,
-                    usage: wgpu::BufferUsages::VERTEX,
-                });
-                (b, n as u32)
-            })
-        };
+        let instances = |label, bytes: &[u8], n: usize| instance_buffer(device, label, bytes, n);
         self.scene = Some(GpuScene {
             vertices,
             n_vertices: scene.vertices.len() as u32,
@@ -631,16 +622,7 @@ impl Renderer {
 
     /// Replaces the tool overlay (lines and glyphs drawn over the scene; empty clears it).
     pub fn set_overlay(&mut self, device: &wgpu::Device, lines: &[LineSegment], glyphs: &[Glyph]) {
-        let instances = |label, bytes: &[u8], n: usize| {
-            (n > 0).then(|| {
-                let b = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents: bytes,
-                    usage: wgpu::BufferUsages::VERTEX,
-                });
-                (b, n as u32)
-            })
-        };
+        let instances = |label, bytes: &[u8], n: usize| instance_buffer(device, label, bytes, n);
         self.overlay = (!lines.is_empty() || !glyphs.is_empty()).then(|| GpuOverlay {
             lines: instances(
                 "quadcover overlay lines",
@@ -1109,4 +1091,21 @@ impl Offscreen {
             height,
         )
     }
+}
+
+/// A vertex buffer of `n` instances (`None` when there are none: wgpu refuses empty buffers).
+fn instance_buffer(
+    device: &wgpu::Device,
+    label: &str,
+    bytes: &[u8],
+    n: usize,
+) -> Option<(wgpu::Buffer, u32)> {
+    (n > 0).then(|| {
+        let b = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytes,
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        (b, n as u32)
+    })
 }
