@@ -1055,3 +1055,50 @@ fn dragging_onto_another_singularity_merges_or_says_why_not() {
     assert!(notice.contains("refused"), "{notice}");
     h.get_by_label_contains(&notice);
 }
+
+/// Undo and redo back to a state solved a moment ago show its remembered solve at once (no
+/// job runs), bit for bit the same map.
+#[test]
+fn undo_and_redo_show_remembered_solves_at_once() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness_with(
+        &dir.path().join("recent.txt"),
+        Some(shared_mesh("spot.obj")),
+        true,
+    );
+    settle(&mut h);
+    let uv_bits = |h: &Harness<'static, EditorApp>| -> Vec<[u64; 2]> {
+        let p = h.state().document.parameterization.as_ref().unwrap();
+        p.uv.iter()
+            .map(|x| [x[0].to_bits(), x[1].to_bits()])
+            .collect()
+    };
+    let (before, sing_before) = (uv_bits(&h), singularities(&h));
+    let edit = {
+        let (base, state) = h.state().document.editable().unwrap();
+        let (&p, _) = state.singularities.iter().next().unwrap();
+        let q = base
+            .mesh()
+            .outgoing(p)
+            .map(|hh| base.mesh().to(hh))
+            .find(|q| !state.singularities.contains_key(q) && !base.mesh().is_boundary_vertex(*q))
+            .expect("a free neighbour");
+        quadcover::edit::Edit::MoveSingularity {
+            from: base.file_vertex(p),
+            to: base.file_vertex(q),
+        }
+    };
+    h.state_mut().commit_edit(edit);
+    settle(&mut h);
+    let (after, sing_after) = (uv_bits(&h), singularities(&h));
+    assert_ne!(sing_after, sing_before);
+    h.state_mut().undo();
+    assert!(!h.state().busy(), "undo started a solve");
+    assert!(h.state().document.solve_current());
+    assert_eq!(uv_bits(&h), before);
+    assert_eq!(singularities(&h), sing_before);
+    h.state_mut().redo();
+    assert!(!h.state().busy(), "redo started a solve");
+    assert_eq!(uv_bits(&h), after);
+    assert_eq!(singularities(&h), sing_after);
+}

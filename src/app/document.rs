@@ -368,6 +368,10 @@ pub struct Document {
     pub solve_info: Option<SolveInfo>,
     /// Why the last solve failed (the last good result stays on screen).
     pub solve_error: Option<String>,
+    /// The last few solves with their base and state, newest last: undo and redo back to one
+    /// of them show it at once instead of solving again (a solve is a pure function of the
+    /// base and the state, so this is the same result).
+    solve_cache: Vec<(Arc<Base>, EditState, Solved)>,
     /// The project file this document was opened from or saved to.
     pub project_path: Option<PathBuf>,
     /// (applied edits, settings) at the last save or open: unsaved changes are a difference.
@@ -409,6 +413,7 @@ impl Default for Document {
             shown_state: None,
             solve_info: None,
             solve_error: None,
+            solve_cache: Vec::new(),
             project_path: None,
             saved: (Vec::new(), Settings::default()),
             edit_revision: 1,
@@ -445,6 +450,7 @@ impl Document {
         self.cursor = 0;
         self.states.clear();
         self.skipped.clear();
+        self.solve_cache.clear();
         self.shown_state = None;
         self.solve_info = None;
         self.solve_error = None;
@@ -623,10 +629,47 @@ impl Document {
             Ok(solved) => {
                 self.solve_error = None;
                 let state = self.states.get(self.cursor).cloned();
+                if let (Some(base), Some(state)) = (&self.edit_base, &state) {
+                    self.remember_solve(base.clone(), state.clone(), &solved);
+                }
                 self.set_solved(solved, state);
             }
             Err(e) => self.solve_error = Some(e),
         }
+        true
+    }
+
+    /// Keeps a solve for undo and redo: the newest few, about three million faces' worth
+    /// (between 2 and 8).
+    fn remember_solve(&mut self, base: Arc<Base>, state: EditState, solved: &Solved) {
+        let faces = self.mesh.as_ref().map_or(1, |m| m.n_faces().max(1));
+        let keep = (3_000_000 / faces).clamp(2, 8);
+        self.solve_cache
+            .retain(|(b, s, _)| !(Arc::ptr_eq(b, &base) && *s == state));
+        self.solve_cache.push((base, state, solved.clone()));
+        let excess = self.solve_cache.len().saturating_sub(keep);
+        self.solve_cache.drain(..excess);
+    }
+
+    /// Shows the remembered solve of the current base and state, if there is one (after undo or
+    /// redo); `true` when it did, and the shown result is then current.
+    pub fn show_remembered_solve(&mut self) -> bool {
+        if !self.base_current() {
+            return false;
+        }
+        let (Some(base), Some(state)) = (&self.edit_base, self.states.get(self.cursor)) else {
+            return false;
+        };
+        let Some((_, state, solved)) = self
+            .solve_cache
+            .iter()
+            .find(|(b, s, _)| Arc::ptr_eq(b, base) && s == state)
+            .cloned()
+        else {
+            return false;
+        };
+        self.solve_error = None;
+        self.set_solved(solved, Some(state));
         true
     }
 

@@ -369,7 +369,7 @@ pub fn plain(text: &str) -> String {
 
 /// After a parameterization: the pattern view, with each symmetry's own pattern unless the
 /// user chose another that fits.
-fn show_pattern(document: &mut Document) {
+pub(super) fn show_pattern(document: &mut Document) {
     let Some(n) = document
         .parameterization
         .as_ref()

@@ -13,6 +13,17 @@ impl EditorApp {
     /// (cooperatively) and starts one for the newest state once none runs, so rapid edits
     /// coalesce into one solve.
     pub fn schedule_solve(&mut self) {
+        // Undo or redo back to a state solved a moment ago: shown at once, no job.
+        if self.document.show_remembered_solve() {
+            for job in &self.jobs {
+                if job.revision.is_some() {
+                    job.cancel();
+                }
+            }
+            self.solve_pending = false;
+            super::editor::show_pattern(&mut self.document);
+            return;
+        }
         let revision = self.document.edit_revision();
         let mut running = false;
         for job in &self.jobs {
