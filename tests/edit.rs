@@ -106,11 +106,9 @@ fn apply(base: &Base, state: &EditState, edit: Edit) -> Result<EditState, EditEr
     base.apply(state, &edit, &quadcover::edit::never)
 }
 
-/// Moves the singularity at mesh vertex p to the free vertex q and checks the result: it sits
-/// exactly at q with its index, and nothing else changed.
-fn move_to_free(base: &Base, state: &EditState, p: usize, q: usize) -> EditState {
-    let k = state.singularities[&p];
-    let next = apply(
+/// Moves the singularity at mesh vertex p to mesh vertex q (file indices in the edit).
+fn mv(base: &Base, state: &EditState, p: usize, q: usize) -> Result<EditState, EditError> {
+    apply(
         base,
         state,
         Edit::MoveSingularity {
@@ -118,7 +116,13 @@ fn move_to_free(base: &Base, state: &EditState, p: usize, q: usize) -> EditState
             to: base.file_vertex(q),
         },
     )
-    .unwrap();
+}
+
+/// Moves the singularity at mesh vertex p to the free vertex q and checks the result: it sits
+/// exactly at q with its index, and nothing else changed.
+fn move_to_free(base: &Base, state: &EditState, p: usize, q: usize) -> EditState {
+    let k = state.singularities[&p];
+    let next = mv(base, state, p, q).unwrap();
     let mut expected = state.singularities.clone();
     expected.remove(&p);
     expected.insert(q, k);
@@ -155,15 +159,7 @@ fn scripted_moves_merges_and_cancellations_on_spot() {
     // 2. Cancel an opposite pair: the indices add to 0, both are gone.
     let a = *s1.singularities.iter().find(|(_, k)| **k > 0).unwrap().0;
     let b = *s1.singularities.iter().find(|(_, k)| **k < 0).unwrap().0;
-    let s2 = apply(
-        &base,
-        &s1,
-        Edit::MoveSingularity {
-            from: fv(a),
-            to: fv(b),
-        },
-    )
-    .unwrap();
+    let s2 = mv(&base, &s1, a, b).unwrap();
     let mut expected = file_set(&base, &s1);
     let ka = expected.remove(&fv(a)).unwrap();
     let kb = expected.remove(&fv(b)).unwrap();
@@ -185,15 +181,7 @@ fn scripted_moves_merges_and_cancellations_on_spot() {
         .map(|(v, _)| *v)
         .collect();
     assert!(pos.len() >= 2);
-    let s3 = apply(
-        &base,
-        &s2,
-        Edit::MoveSingularity {
-            from: fv(pos[0]),
-            to: fv(pos[1]),
-        },
-    )
-    .unwrap();
+    let s3 = mv(&base, &s2, pos[0], pos[1]).unwrap();
     let mut expected = file_set(&base, &s2);
     expected.remove(&fv(pos[0]));
     expected.insert(fv(pos[1]), 2);
@@ -252,15 +240,7 @@ fn scripted_moves_merges_and_cancellations_on_spot() {
     // A non-singular `from` is refused with a message naming it; in a replay it is skipped
     // (position named) and the rest kept.
     let free = vertex_away(&base, &s0, list[1].0, 2);
-    let err = apply(
-        &base,
-        &s0,
-        Edit::MoveSingularity {
-            from: fv(free),
-            to: fv(q),
-        },
-    )
-    .unwrap_err();
+    let err = mv(&base, &s0, free, q).unwrap_err();
     assert!(
         err.to_string()
             .contains(&format!("vertex {} is not a singularity", fv(free))),
@@ -293,26 +273,9 @@ fn scripted_moves_merges_and_cancellations_on_spot() {
         .filter(|(_, k)| **k == 1)
         .map(|(v, _)| *v)
         .collect();
-    let s4 = apply(
-        &base,
-        &s3,
-        Edit::MoveSingularity {
-            from: fv(more[0]),
-            to: fv(pos[1]),
-        },
-    )
-    .unwrap();
+    let s4 = mv(&base, &s3, more[0], pos[1]).unwrap();
     assert_eq!(s4.singularities[&pos[1]], 3);
-    let err = apply(
-        &base,
-        &s4,
-        Edit::MoveSingularity {
-            from: fv(more[1]),
-            to: fv(pos[1]),
-        },
-    )
-    .unwrap_err()
-    .to_string();
+    let err = mv(&base, &s4, more[1], pos[1]).unwrap_err().to_string();
     assert!(err.contains("pole"), "{err}");
 }
 

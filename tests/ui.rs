@@ -401,6 +401,23 @@ use quadcover::app::picking::project;
 use quadcover::edit::{Edit, Project};
 
 /// Singularities of the document's current state as (file vertex, k).
+/// An edit moving the first singularity to a free interior neighbour (through the document
+/// API; the drag tests cover the gesture).
+fn move_to_free_neighbour(h: &Harness<'static, EditorApp>) -> Edit {
+    let (base, state) = h.state().document.editable().unwrap();
+    let (&p, _) = state.singularities.iter().next().unwrap();
+    let q = base
+        .mesh()
+        .outgoing(p)
+        .map(|hh| base.mesh().to(hh))
+        .find(|q| !state.singularities.contains_key(q) && !base.mesh().is_boundary_vertex(*q))
+        .expect("a free neighbour");
+    Edit::MoveSingularity {
+        from: base.file_vertex(p),
+        to: base.file_vertex(q),
+    }
+}
+
 fn singularities(h: &Harness<'static, EditorApp>) -> Vec<(usize, i32)> {
     h.state()
         .document
@@ -702,20 +719,7 @@ fn projects_save_reopen_and_broken_ones_keep_the_document() {
     let mut h = harness_with(&dir.path().join("recent.txt"), Some(mesh.clone()), true);
     settle(&mut h);
     // an edit through the document API (the drag test covers the gesture)
-    let edit = {
-        let (base, state) = h.state().document.editable().unwrap();
-        let (&p, _) = state.singularities.iter().next().unwrap();
-        let q = base
-            .mesh()
-            .outgoing(p)
-            .map(|hh| base.mesh().to(hh))
-            .find(|q| !state.singularities.contains_key(q) && !base.mesh().is_boundary_vertex(*q))
-            .expect("a free neighbour");
-        Edit::MoveSingularity {
-            from: base.file_vertex(p),
-            to: base.file_vertex(q),
-        }
-    };
+    let edit = move_to_free_neighbour(&h);
     h.state_mut().commit_edit(edit.clone());
     settle(&mut h);
     assert!(h.state().document.is_dirty());
@@ -1074,20 +1078,7 @@ fn undo_and_redo_show_remembered_solves_at_once() {
             .collect()
     };
     let (before, sing_before) = (uv_bits(&h), singularities(&h));
-    let edit = {
-        let (base, state) = h.state().document.editable().unwrap();
-        let (&p, _) = state.singularities.iter().next().unwrap();
-        let q = base
-            .mesh()
-            .outgoing(p)
-            .map(|hh| base.mesh().to(hh))
-            .find(|q| !state.singularities.contains_key(q) && !base.mesh().is_boundary_vertex(*q))
-            .expect("a free neighbour");
-        quadcover::edit::Edit::MoveSingularity {
-            from: base.file_vertex(p),
-            to: base.file_vertex(q),
-        }
-    };
+    let edit = move_to_free_neighbour(&h);
     h.state_mut().commit_edit(edit);
     settle(&mut h);
     let (after, sing_after) = (uv_bits(&h), singularities(&h));
