@@ -323,6 +323,15 @@ pub struct SolveInfo {
     pub timings: Vec<(String, f64)>,
 }
 
+/// The panel's one-line summary of a field.
+fn field_summary(display: &FieldDisplay, e_smooth: f64) -> String {
+    format!(
+        "N = {}, {} singularities, E_smooth {e_smooth:.3e}",
+        display.symmetry,
+        display.singularities.len()
+    )
+}
+
 /// The editor's document.
 pub struct Document {
     pub path: Option<PathBuf>,
@@ -685,12 +694,7 @@ impl Document {
                 .collect(),
         };
         let display = FieldDisplay::from_frame_field(&solved.field, singularities);
-        self.field_summary = format!(
-            "N = {}, {} singularities, E_smooth {:.3e}",
-            display.symmetry,
-            display.singularities.len(),
-            solved.e_smooth
-        );
+        self.field_summary = field_summary(&display, solved.e_smooth);
         let p = solved.param;
         self.solve_info = Some(SolveInfo {
             revision: self.edit_revision,
@@ -784,12 +788,7 @@ impl Document {
     pub fn set_frame_field(&mut self, result: crate::field::FieldResult) {
         let sing = result.indices.singularities.iter().map(|s| (s.vertex, s.k));
         let display = FieldDisplay::from_frame_field(&result.field, sing);
-        self.field_summary = format!(
-            "N = {}, {} singularities, E_smooth {:.3e}",
-            display.symmetry,
-            display.singularities.len(),
-            result.e_smooth
-        );
+        self.field_summary = field_summary(&display, result.e_smooth);
         self.frame_field = Some(result.field);
         self.parameterization = None;
         self.param = None;
