@@ -5,6 +5,7 @@
 //! [`field`] (frame fields), [`param`] (QuadCover), and the headless [`cli`].
 pub mod app;
 pub mod cli;
+pub mod constraint;
 pub mod edit;
 pub mod export;
 pub mod extract;

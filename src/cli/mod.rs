@@ -22,6 +22,7 @@ pub struct Cli {
 }
 
 #[derive(Debug, Subcommand)]
+#[allow(clippy::large_enum_variant)] // parsed once per run
 pub enum Command {
     /// Print a mesh's statistics (V, E, F, components, genus, boundary loops) and repairs.
     Info(info::InfoArgs),

@@ -70,6 +70,14 @@ pub struct SolveArgs {
     /// `relax` edits merge singularities closer than this many grid cells [default: 1].
     #[arg(long)]
     pub relax_merge_within: Option<f64>,
+    /// Align to sharp features: edges whose dihedral angle exceeds ANGLE_DEG become geometric
+    /// constraint curves (a `detect_features` edit after the project's edits).
+    #[arg(long, value_name = "ANGLE_DEG", conflicts_with = "field")]
+    pub features: Option<f64>,
+    /// Align to the boundary: every boundary loop becomes geometric constraint curves, split at
+    /// sharp corners (an `align_boundary` edit after the project's edits).
+    #[arg(long, conflicts_with = "field")]
+    pub align_boundary: bool,
     /// Frame field JSON (`field::io` format) instead of computing one.
     #[arg(long)]
     pub field: Option<PathBuf>,
@@ -132,6 +140,9 @@ struct Report {
     /// What the local step removed from the guiding field (thesis sec. 3.3), in grid cells.
     curl: f64,
     seam_max_error: f64,
+    /// Constraint curves: line family, value and the largest offset of the map from the line
+    /// (0 up to rounding for geometric curves).
+    curves: Vec<param::CurveFit>,
     conformal_distortion: DistortionOut,
     area_distortion: f64,
     timings_ms: TimingsOut,
@@ -273,6 +284,32 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     // With a computed field, QuadCover's factorizations start as soon as its matchings are final.
     let mut prepared = None;
     let mut solved = None;
+    // Curve shortcuts are edits after the project's (or the only ones).
+    let mut shortcut_edits = Vec::new();
+    if let Some(angle_deg) = args.features {
+        shortcut_edits.push(edit::Edit::DetectFeatures { angle_deg });
+    }
+    if args.align_boundary {
+        shortcut_edits.push(edit::Edit::AlignBoundary { on: true });
+    }
+    let project = match (project, shortcut_edits.is_empty()) {
+        (Some(mut p), false) => {
+            p.edits.extend(shortcut_edits);
+            Some(p)
+        }
+        (None, false) => Some(Project::new(
+            edit::MeshRef {
+                path: mesh_path.clone(),
+                sha256: None,
+            },
+            settings.clone(),
+        ))
+        .map(|mut p| {
+            p.edits = shortcut_edits;
+            p
+        }),
+        (p, true) => p,
+    };
     let field = match (&args.field, &project) {
         (_, Some(project)) => {
             bar.start("frame field and QuadCover's analyses, then the edits");
@@ -293,6 +330,19 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             }
             bar.done("field", t);
             let t = Instant::now();
+            // A curve that is no edge path is a broken file, not an edit that no longer applies.
+            let project_path = args
+                .project
+                .clone()
+                .unwrap_or_else(|| "(command line)".into());
+            for (i, e) in project.edits.iter().enumerate() {
+                base.check_edit(e)
+                    .map_err(|message| edit::ProjectError::Edit {
+                        path: project_path.clone(),
+                        position: i + 1,
+                        message,
+                    })?;
+            }
             let replay = base.replay(&project.edits, &edit::never)?;
             for s in &replay.skipped {
                 bar.line(format!(
@@ -483,6 +533,18 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             flipped_faces: p.flipped_faces,
             curl: p.curl,
             seam_max_error: p.seam_max_error,
+            curves: p
+                .curves
+                .iter()
+                .map(|c| param::CurveFit {
+                    singular_vertices: c
+                        .singular_vertices
+                        .iter()
+                        .map(|&v| repair.original_vertex[v] as usize)
+                        .collect(),
+                    ..c.clone()
+                })
+                .collect(),
             conformal_distortion: DistortionOut {
                 mean: p.conformal_distortion.mean,
                 p99: p.conformal_distortion.p99,

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::moves::{MergeRules, PlannedMove, plan_move, released_faces, turn_index};
-use super::{Cancel, Edit, EditError, Settings};
+use super::{Cancel, Curve, Edit, EditError, Settings};
 use crate::field::cancel::{PathSearch, apply};
 use crate::field::index::indices_from_angles;
 use crate::field::smoothing::energies;
@@ -16,7 +16,7 @@ use crate::field::{
     reduce_matchings,
 };
 use crate::mesh::TriMesh;
-use crate::param::{ParamAnalysis, Parameterization, QuadCover};
+use crate::param::{ConstraintCurve, ParamAnalysis, ParamError, Parameterization, QuadCover};
 
 /// The combinatorial state after some edits: integer turns and released faces. The
 /// singularities follow from the turns alone ([`turn_index`]).
@@ -28,6 +28,32 @@ pub struct EditState {
     pub released: Vec<usize>,
     /// Interior vertices (mesh indices) with non-zero index k/N, by vertex.
     pub singularities: BTreeMap<usize, i32>,
+    /// Constraint curves (mesh vertex indices), by id.
+    pub curves: BTreeMap<u32, Curve>,
+    /// The field designed with the geometric curves' alignment (`None`: the base field, as
+    /// without geometric curves).
+    pub design: Option<Design>,
+    /// The singularity edits applied since the field was last designed, in order: a curve edit
+    /// that changes the geometric curves designs the field again and re-applies them where they
+    /// still apply.
+    pub history: Vec<Edit>,
+}
+
+/// A field designed for a set of geometric curves (the faces along them aligned to them).
+#[derive(Clone, Debug)]
+pub struct Design {
+    pub field: Arc<FieldResult>,
+    /// The alignment it was designed with (face, angle).
+    pub aligned: Arc<Vec<(u32, f64)>>,
+}
+
+impl PartialEq for Design {
+    fn eq(&self, other: &Design) -> bool {
+        Arc::ptr_eq(&self.field, &other.field)
+            || (self.aligned == other.aligned
+                && self.field.turns == other.field.turns
+                && self.field.theta == other.field.theta)
+    }
 }
 
 impl EditState {
@@ -113,6 +139,23 @@ impl std::fmt::Debug for Base {
 
 const UNMAPPED: u32 = u32::MAX;
 
+/// Interior vertices of non-zero index k/N for the turns, by vertex.
+fn singularities_of(
+    mesh: &TriMesh,
+    tr: &EdgeTransport,
+    defects: &[f64],
+    n: u32,
+    turns: &[i64],
+) -> BTreeMap<usize, i32> {
+    (0..mesh.n_vertices())
+        .filter_map(|v| {
+            turn_index(mesh, tr, defects[v], v, n, turns)
+                .filter(|&k| k != 0)
+                .map(|k| (v, k))
+        })
+        .collect()
+}
+
 impl Base {
     /// Computes the field (keeping its fixed-matching system) and QuadCover's analyses, side by
     /// side. `to_file[v]` is mesh vertex v's index in the file (`RepairReport::original_vertex`;
@@ -157,18 +200,14 @@ impl Base {
         let bases = FaceBases::new(&mesh);
         let tr = EdgeTransport::new(&mesh, &bases);
         let defects = mesh.angle_defects();
-        let n = settings.symmetry;
-        let singularities = (0..mesh.n_vertices())
-            .filter_map(|v| {
-                turn_index(&mesh, &tr, defects[v], v, n, &field.turns)
-                    .filter(|&k| k != 0)
-                    .map(|k| (v, k))
-            })
-            .collect();
+        let singularities = singularities_of(&mesh, &tr, &defects, settings.symmetry, &field.turns);
         let initial = EditState {
             turns: field.turns.clone(),
             released: Vec::new(),
             singularities,
+            curves: BTreeMap::new(),
+            design: None,
+            history: Vec::new(),
         };
         Ok(Base {
             mesh,
@@ -370,6 +409,92 @@ impl Base {
         edit: &Edit,
         cancel: Cancel,
     ) -> Result<EditState, EditError> {
+        if let Some(next) = self.apply_curve_edit(state, edit) {
+            return self.redesign(next?, cancel);
+        }
+        let mut next = self.apply_singularity_edit(state, edit, cancel)?;
+        next.history.push(edit.clone());
+        Ok(next)
+    }
+
+    /// The field of a state: its design's, or the base field.
+    pub fn field_of<'a>(&'a self, state: &'a EditState) -> &'a FieldResult {
+        state.design.as_ref().map_or(&self.field, |d| &d.field)
+    }
+
+    /// After a curve edit: when the geometric curves ask for another alignment, the field is
+    /// designed again with it (matchings and singularities anew, as for a fresh solve) and the
+    /// singularity edits since the last design are re-applied where they still apply.
+    fn redesign(&self, mut state: EditState, cancel: Cancel) -> Result<EditState, EditError> {
+        let aligned = self.design_alignment(&state);
+        let current: &[(u32, f64)] = state.design.as_ref().map_or(&[], |d| &d.aligned);
+        if aligned.as_slice() == current {
+            return Ok(state);
+        }
+        if cancel() {
+            return Err(EditError::Cancelled);
+        }
+        let design = if aligned.is_empty() {
+            None
+        } else {
+            let aligned = Arc::new(aligned);
+            let params = crate::field::FieldParams {
+                keep_system: true,
+                aligned: Some(aligned.clone()),
+                ..self.settings.field_params()
+            };
+            let field =
+                compute_field(&self.mesh, &params).map_err(|e| EditError::Field(e.to_string()))?;
+            Some(Design {
+                field: Arc::new(field),
+                aligned,
+            })
+        };
+        state.design = design;
+        let field = self.field_of(&state);
+        let turns = field.turns.clone();
+        state.singularities = singularities_of(
+            &self.mesh,
+            &self.tr,
+            &self.defects,
+            self.settings.symmetry,
+            &turns,
+        );
+        state.turns = turns;
+        state.released.clear();
+        for edit in std::mem::take(&mut state.history) {
+            match self.apply(&state, &edit, cancel) {
+                Ok(next) => state = next,
+                Err(EditError::Invalid(_)) => {}
+                Err(e) => return Err(e),
+            }
+        }
+        Ok(state)
+    }
+
+    /// Per face along a geometric curve the direction the design holds it to: the curve edges'
+    /// directions there combined modulo 2π/N (the mean of e^{iNα}).
+    fn design_alignment(&self, state: &EditState) -> Vec<(u32, f64)> {
+        let n = self.settings.symmetry as f64;
+        let mut sum: BTreeMap<usize, (f64, f64)> = BTreeMap::new();
+        for a in crate::constraint::alignment(&self.mesh, state.curves.values()) {
+            let alpha = self.bases.angle_of(a.face, a.direction);
+            let e = sum.entry(a.face).or_insert((0.0, 0.0));
+            e.0 += (n * alpha).cos();
+            e.1 += (n * alpha).sin();
+        }
+        sum.into_iter()
+            .filter(|(_, (c, s))| c.hypot(*s) > 1e-9)
+            .map(|(f, (c, s))| (f as u32, s.atan2(c) / n))
+            .collect()
+    }
+
+    fn apply_singularity_edit(
+        &self,
+        state: &EditState,
+        edit: &Edit,
+        cancel: Cancel,
+    ) -> Result<EditState, EditError> {
         match *edit {
             Edit::MoveSingularity { from, to } => {
                 let p = self
@@ -383,6 +508,7 @@ impl Base {
                 Ok(self.commit(state, &mv))
             }
             Edit::Relax => super::relax::relax(self, state, cancel).map(|r| r.state),
+            _ => unreachable!("curve edits are applied above"),
         }
     }
 
@@ -425,20 +551,34 @@ impl Base {
         Ok(Replay { states, skipped })
     }
 
-    /// The field angles of a state: the fixed-matching system re-solved for its turns and
-    /// released faces (the base field's own angles for the initial state).
+    /// The field angles of a state: its field's fixed-matching system re-solved for its turns
+    /// and released faces (the field's own angles when nothing changed).
     pub fn angles(&self, state: &EditState) -> Result<Vec<f64>, EditError> {
-        if state.turns == self.field.turns && state.released.is_empty() {
-            return Ok(self.field.theta.clone());
+        let field = self.field_of(state);
+        if state.turns == field.turns && state.released.is_empty() {
+            return Ok(field.theta.clone());
         }
-        let system = self
-            .field
+        let system = field
             .system
             .as_ref()
             .ok_or_else(|| EditError::Field("the field kept no system".into()))?;
         system
             .solve(&self.tr, &state.turns, &state.released)
             .map_err(|e| EditError::Field(e.to_string()))
+    }
+
+    /// The state's curves as QuadCover takes them.
+    fn constraint_curves<'a>(&self, state: &'a EditState) -> Vec<ConstraintCurve<'a>> {
+        state
+            .curves
+            .values()
+            .map(|c| ConstraintCurve {
+                id: c.id,
+                vertices: &c.vertices,
+                closed: c.closed,
+                geometric: c.kind == crate::constraint::CurveKind::Geometric,
+            })
+            .collect()
     }
 
     /// Frames (U, V) per face for angles: isotropic, scaled by the field's density.
@@ -482,12 +622,17 @@ impl Base {
         };
         let indices = indices_from_angles(&self.mesh, &self.tr, &theta, &field.matchings, n);
         let step = std::f64::consts::TAU / n as f64;
-        let mut omega = self.field.omega.clone();
-        for &f in self.field_released().iter().chain(&state.released) {
+        let base_field = self.field_of(state);
+        let mut omega = base_field.omega.clone();
+        let released_by_cancellation = base_field
+            .system
+            .as_ref()
+            .map(|s| s.released_by_cancellation())
+            .unwrap_or(&[]);
+        for &f in released_by_cancellation.iter().chain(&state.released) {
             omega[f] = 0.0;
         }
-        let target = self
-            .field
+        let target = base_field
             .system
             .as_ref()
             .map(|s| s.target().to_vec())
@@ -507,8 +652,13 @@ impl Base {
             return Err(EditError::Cancelled);
         }
         let param = qc
-            .solve(&self.mesh, &field.frames)
-            .map_err(|e| EditError::Param(e.to_string()))?;
+            .solve_with_curves(&self.mesh, &field.frames, &self.constraint_curves(state))
+            .map_err(|e| match e {
+                ParamError::Contradiction { curves, message } => {
+                    EditError::Contradiction { curves, message }
+                }
+                e => EditError::Param(e.to_string()),
+            })?;
         lap("QuadCover solve", &mut timings);
         Ok(Solved {
             field,
@@ -519,13 +669,5 @@ impl Base {
             e_align,
             timings,
         })
-    }
-
-    fn field_released(&self) -> &[usize] {
-        self.field
-            .system
-            .as_ref()
-            .map(|s| s.released_by_cancellation())
-            .unwrap_or(&[])
     }
 }

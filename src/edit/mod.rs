@@ -10,26 +10,58 @@
 //! mesh's: [`Base`] maps between them.
 
 mod base;
+mod curves;
 mod moves;
 pub mod project;
 mod relax;
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::constraint::{Curve, CurveKind, CurveOrigin};
+
 pub use base::{Base, EditState, MovePreview, Replay, Skipped, Solved};
 pub use project::{MeshRef, Project, ProjectError, Settings};
 
 /// One user edit, as written in a project file: a JSON object tagged by `op`.
-/// Later kinds (curves, features, boundary alignment, density) join this list.
+/// Later kinds (density) join this list.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "op", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Edit {
     /// Move the singularity at file vertex `from` to file vertex `to` along a shortest edge path
     /// (merging with a singularity there, or leaving through the boundary).
-    MoveSingularity { from: usize, to: usize },
+    MoveSingularity {
+        from: usize,
+        to: usize,
+    },
     /// Move every singularity to the neighbouring vertex that lowers the total curl, until none
     /// does; merge singularities closer than `relax_merge_within` grid cells.
     Relax,
+    /// A constraint curve over mesh edges (thesis sec. 4.4): `vertices` are file vertex indices,
+    /// consecutive ones sharing an edge (and the last and the first when `closed`).
+    AddCurve {
+        id: u32,
+        vertices: Vec<usize>,
+        #[serde(default)]
+        closed: bool,
+        #[serde(default)]
+        kind: CurveKind,
+    },
+    RemoveCurve {
+        id: u32,
+    },
+    SetCurveKind {
+        id: u32,
+        kind: CurveKind,
+    },
+    /// Replaces the detected feature curves by the edges whose dihedral angle exceeds
+    /// `angle_deg`, chained into geometric curves (new ids after the largest in use).
+    DetectFeatures {
+        angle_deg: f64,
+    },
+    /// Every boundary loop as closed geometric curves split at sharp corners (`on`), or none.
+    AlignBoundary {
+        on: bool,
+    },
 }
 
 impl Edit {
@@ -38,6 +70,18 @@ impl Edit {
         match self {
             Edit::MoveSingularity { from, to } => format!("Move singularity {from} -> {to}"),
             Edit::Relax => "Relax singularities".into(),
+            Edit::AddCurve {
+                id, kind, closed, ..
+            } => format!(
+                "Add {}{} curve {id}",
+                if *closed { "closed " } else { "" },
+                kind.label()
+            ),
+            Edit::RemoveCurve { id } => format!("Remove curve {id}"),
+            Edit::SetCurveKind { id, kind } => format!("Make curve {id} {}", kind.label()),
+            Edit::DetectFeatures { angle_deg } => format!("Detect features above {angle_deg} deg"),
+            Edit::AlignBoundary { on: true } => "Align to boundary".into(),
+            Edit::AlignBoundary { on: false } => "Stop aligning to boundary".into(),
         }
     }
 }
@@ -51,6 +95,10 @@ pub enum EditError {
     Param(String),
     #[error("{0}")]
     Invalid(String),
+    /// The constraint curves admit no parameterization: the message names the curves, `curves`
+    /// lists their ids (the editor draws them red).
+    #[error("{message}")]
+    Contradiction { curves: Vec<u32>, message: String },
     #[error("cancelled")]
     Cancelled,
 }

@@ -353,6 +353,20 @@ impl Project {
         file_vertices: usize,
     ) -> Result<(), ProjectError> {
         for (i, e) in self.edits.iter().enumerate() {
+            if let Edit::AddCurve { id, vertices, .. } = e
+                && let Some((at, v)) = vertices
+                    .iter()
+                    .enumerate()
+                    .find(|(_, v)| **v >= file_vertices)
+            {
+                return Err(ProjectError::Edit {
+                    path: project_path.to_path_buf(),
+                    position: i + 1,
+                    message: format!(
+                        "curve {id}: vertex {v} at position {at} is out of range (the mesh has {file_vertices} vertices)"
+                    ),
+                });
+            }
             if let Edit::MoveSingularity { from, to } = e {
                 for (name, v) in [("from", from), ("to", to)] {
                     if *v >= file_vertices {

@@ -67,7 +67,7 @@ pub(crate) fn relax(
 ) -> Result<RelaxOutcome, EditError> {
     let mesh = base.mesh().clone();
     let system = base
-        .field()
+        .field_of(state)
         .system
         .clone()
         .ok_or_else(|| EditError::Field("the field kept no system".into()))?;

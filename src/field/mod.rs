@@ -196,7 +196,16 @@ pub struct FieldParams {
     /// re-solves with it; it costs the factor's memory, so only asked for there).
     #[serde(skip)]
     pub keep_system: bool,
+    /// Faces held to a direction (face, angle in the face basis, any of the N representatives):
+    /// the faces along geometric constraint curves (thesis sec. 4.4), with the alignment weight
+    /// [`CURVE_WEIGHT`] in place of their curvature alignment (with τ = 0 there is none).
+    #[serde(skip)]
+    pub aligned: Option<std::sync::Arc<Vec<(u32, f64)>>>,
 }
+
+/// Alignment weight τω of a face along a constraint curve, against the dual Laplacian's
+/// diagonal of about 3: the field there stays within a few hundredths of a radian of the curve.
+pub const CURVE_WEIGHT: f64 = 100.0;
 
 impl Default for FieldParams {
     fn default() -> FieldParams {
@@ -212,6 +221,7 @@ impl Default for FieldParams {
             curvature_smoothing: 5,
             cancel_pairs_within: 1.0,
             keep_system: false,
+            aligned: None,
         }
     }
 }
@@ -341,10 +351,22 @@ fn field_with_analysis<T: Send>(
     let diag = (hi - lo).length().max(f64::MIN_POSITIVE);
     let (reference, cand, classes) =
         classify::targets(&curvature, params.symmetry, params.planar_threshold / diag);
-    let omega = match params.guidance {
+    let mut omega = match params.guidance {
         Guidance::Curvature => curvature.reliability(params.reliable_fraction, &cand),
         Guidance::Smooth => vec![0.0; mesh.n_faces()],
     };
+    let mut reference = reference;
+    if let Some(aligned) = &params.aligned
+        && params.tau > 0.0
+    {
+        for &(f, angle) in aligned.iter() {
+            let f = f as usize;
+            if f < omega.len() && angle.is_finite() {
+                reference[f] = angle;
+                omega[f] = CURVE_WEIGHT / params.tau;
+            }
+        }
+    }
     lap("classification + reliability", &mut timings);
     let multipliers = density::face_multipliers(mesh, &params.scale, &curvature)?;
     let grid_size = density::grid_size(mesh, &params.density, params.symmetry, &multipliers)?;

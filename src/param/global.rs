@@ -22,7 +22,7 @@ pub(crate) struct GlobalSystem {
 }
 
 /// Cotan stiffness K_ab = A⟨∇λ_a, ∇λ_b⟩ of face f.
-fn stiffness(mesh: &TriMesh, f: usize) -> [[f64; 3]; 3] {
+pub(crate) fn stiffness(mesh: &TriMesh, f: usize) -> [[f64; 3]; 3] {
     let d: [DVec3; 3] = std::array::from_fn(|k| mesh.vector(3 * f + k));
     let a4 = 4.0 * mesh.face_area(f);
     std::array::from_fn(|a| std::array::from_fn(|b| d[(a + 1) % 3].dot(d[(b + 1) % 3]) / a4))
@@ -140,7 +140,7 @@ impl GlobalSystem {
     }
 
     /// Per-corner targets b_a = A⟨∇λ_a, X̃⟩ (rows) of the disk-frame field.
-    fn targets(mesh: &TriMesh, disk: &[[DVec3; 2]]) -> Vec<[f64; 2]> {
+    pub(crate) fn targets(mesh: &TriMesh, disk: &[[DVec3; 2]]) -> Vec<[f64; 2]> {
         let mut out = vec![[0.0; 2]; 3 * mesh.n_faces()];
         for (f, x) in disk.iter().enumerate() {
             let n = mesh.face_normal(f);
@@ -199,13 +199,10 @@ impl GlobalSystem {
     /// Greedy rounding: the energy reduced to the gaps (Schur complement H of the vertex block,
     /// computed with the reused factorization), then one loop at a time the gap closest to the
     /// lattice is fixed and the others re-optimised (Gaussian conditioning, O(K²) per step).
-    pub fn greedy_round(
-        &self,
-        mesh: &TriMesh,
-        rots: &Rots,
-        measured: &[[f64; 2]],
-        lattice: Lattice,
-    ) -> Result<Vec<[f64; 2]>, ParamError> {
+    /// The energy as a function of the gaps alone (the vertex unknowns eliminated): the dense
+    /// Schur complement H (2K × 2K, row-major, gap k's components at 2k, 2k + 1), computed with
+    /// the reused factorization.
+    pub fn gap_hessian(&self, mesh: &TriMesh, rots: &Rots) -> Result<Vec<f64>, ParamError> {
         let nl = self.n_loops;
         let m = 2 * nl;
         if nl == 0 {
@@ -284,6 +281,22 @@ impl GlobalSystem {
                 }
             }
         }
+        Ok(h)
+    }
+
+    pub fn greedy_round(
+        &self,
+        mesh: &TriMesh,
+        rots: &Rots,
+        measured: &[[f64; 2]],
+        lattice: Lattice,
+    ) -> Result<Vec<[f64; 2]>, ParamError> {
+        let nl = self.n_loops;
+        let m = 2 * nl;
+        if nl == 0 {
+            return Ok(Vec::new());
+        }
+        let h = self.gap_hessian(mesh, rots)?;
         let Some(mut cov) = dense_spd_inverse(&h, m) else {
             // Not positive definite numerically: fall back to direct rounding.
             return Ok(measured.iter().map(|&p| lattice.nearest(p)).collect());

@@ -22,8 +22,11 @@
 // Index loops over the 3 corners / vertices read clearer than iterator chains here.
 #![allow(clippy::needless_range_loop)]
 
+mod constrained;
+mod constraints;
 mod cut;
 mod global;
+mod integer;
 mod local;
 mod metrics;
 mod rot;
@@ -44,6 +47,7 @@ use thiserror::Error;
 use crate::mesh::TriMesh;
 use crate::sparse::{Analysis, SolverError};
 
+pub use constraints::{ConstraintCurve, CurveFit};
 pub use local::curl_star;
 pub use rot::Lattice;
 
@@ -58,6 +62,10 @@ pub enum ParamError {
     InvalidInput(String),
     #[error(transparent)]
     Solver(#[from] SolverError),
+    /// The constraint curves admit no parameterization (thesis sec. 4.4); `curves` are the ids
+    /// of the curves involved, which the message names.
+    #[error("{message}")]
+    Contradiction { curves: Vec<u32>, message: String },
 }
 
 /// How loop gaps are rounded to the lattice.
@@ -169,6 +177,8 @@ pub struct Parameterization {
     /// singularity placement by it).
     pub curl: f64,
     pub seam_max_error: f64,
+    /// How each constraint curve sits in the map (empty without curves).
+    pub curves: Vec<CurveFit>,
     pub conformal_distortion: Distortion,
     pub area_distortion: f64,
     pub timings: StageTimings,
@@ -408,6 +418,68 @@ impl QuadCover {
         Ok(p)
     }
 
+    /// [`QuadCover::solve`] under constraint curves (alg. 7): the local step, the curves'
+    /// line families and values, the integer unknowns rounded to the nearest solution of the
+    /// combinatorial constraints, the global step with the geometric ones eliminated.
+    pub fn solve_with_curves(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[DVec3; 2]],
+        curves: &[ConstraintCurve],
+    ) -> Result<Parameterization, ParamError> {
+        if curves.is_empty() {
+            return self.solve(mesh, frames);
+        }
+        for c in curves {
+            if let Some(&v) = c.vertices.iter().find(|&&v| v >= mesh.n_vertices()) {
+                return Err(ParamError::InvalidInput(format!(
+                    "curve {}: vertex {v} is out of range",
+                    c.id
+                )));
+            }
+        }
+        let local = self.local_step(mesh, frames)?;
+        let t = Instant::now();
+        let traced = constraints::Traced::new(
+            mesh,
+            &self.cut,
+            &self.rots,
+            self.lattice,
+            &self.global,
+            &local.disk,
+            &local.uv,
+            &local.gaps,
+            curves,
+        )?;
+        let plain = self.round_gaps(mesh, &local)?;
+        let hessian = self.global.gap_hessian(mesh, &self.rots)?;
+        let (gaps, w) = traced.round(&local.gaps, &plain, &hessian)?;
+        let uv = if traced.has_geometric() {
+            constrained::solve(
+                mesh,
+                &self.cut,
+                &self.global,
+                &self.rots,
+                &local.disk,
+                &gaps,
+                &traced.fixes(&w),
+            )?
+        } else {
+            self.global_uv(mesh, &local, &gaps)?
+        };
+        let global_ms = ms(t);
+        let fits = traced.fits(&self.rots, &uv, &w);
+        let mut p = self.finish(mesh, frames, uv, local.gaps.clone(), gaps);
+        p.curl = local.curl(mesh, frames);
+        p.curves = fits;
+        p.timings = StageTimings {
+            cut_ms: self.timings.cut_ms,
+            local_ms: self.timings.local_ms + local.local_ms,
+            global_ms: self.timings.global_ms + global_ms,
+        };
+        Ok(p)
+    }
+
     fn finish(
         &self,
         mesh: &TriMesh,
@@ -453,6 +525,7 @@ impl QuadCover {
             flipped_faces: q.flipped,
             curl: 0.0,
             seam_max_error,
+            curves: Vec::new(),
             conformal_distortion: Distortion {
                 mean: q.conformal_mean,
                 p99: q.conformal_p99,

@@ -1,0 +1,464 @@
+//! Sharp features and boundary loops as constraint curves (`detect_features`, `align_boundary`).
+//!
+//! Both detectors pick a set of mesh edges (feature edges, boundary edges) and chain them into
+//! edge paths with the same rules:
+//!
+//! * A vertex is a **split point** when the number of chosen edges at it is not two (an end of a
+//!   chain, or a junction of three or more), when the chain turns sharply there (the angle
+//!   between the directions of the incoming and the outgoing edge exceeds [`SHARP_TURN_DEG`],
+//!   measured in 3-D), and, for features only, when it is a boundary vertex (a crease meeting
+//!   the boundary).
+//! * Curves run between split points and never pass through one. A loop of chosen edges with no
+//!   split point at all is one closed curve. A loop with exactly one split point is cut there
+//!   and at the vertex half-way around (by edge count), giving two open curves, since a curve
+//!   may repeat no vertex except through `closed`.
+//! * Nothing is dropped: every chosen edge lies on exactly one curve, so a single isolated
+//!   feature edge is a curve of two vertices.
+//! * Output order is by the smallest edge id of each chain (the two halves of a loop with one
+//!   split point come together, in walking order). Each chain is oriented along the first
+//!   halfedge of its smallest edge, so boundary curves run with the surface on their left.
+//!   Closed curves start at the start vertex of that halfedge.
+//!
+//! Every curve passes [`check_path`](super::check_path).
+
+use crate::mesh::TriMesh;
+
+/// A curve is split at a vertex where it turns by more than this (degrees): the angle between
+/// the direction of the edge arriving at the vertex and that of the edge leaving it, in 3-D.
+/// A cube corner in a boundary (90°) splits; a 24-gon (15° per vertex) does not.
+pub const SHARP_TURN_DEG: f64 = 50.0;
+
+/// A detected curve: vertices in order (the first not repeated when closed).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DetectedCurve {
+    pub vertices: Vec<usize>,
+    pub closed: bool,
+}
+
+/// Interior edges whose dihedral angle (between the two face normals) exceeds `angle_deg`.
+pub fn feature_edges(mesh: &TriMesh, angle_deg: f64) -> Vec<usize> {
+    let cos = angle_deg.to_radians().cos();
+    (0..mesh.n_edges())
+        .filter(|&e| {
+            let (h0, h1) = mesh.edge_halfedges(e);
+            h1.is_some_and(|h1| {
+                let a = mesh.face_normal(mesh.face_of(h0));
+                let b = mesh.face_normal(mesh.face_of(h1));
+                a.dot(b) < cos
+            })
+        })
+        .collect()
+}
+
+/// Feature edges ([`feature_edges`] at `angle_deg`) chained into curves, split at junctions of
+/// three or more feature edges, at sharp turns ([`SHARP_TURN_DEG`]) and where a chain meets the
+/// boundary; see the module documentation for the rules.
+pub fn detect_features(mesh: &TriMesh, angle_deg: f64) -> Vec<DetectedCurve> {
+    chain_edges(mesh, &feature_edges(mesh, angle_deg), |v| {
+        mesh.is_boundary_vertex(v)
+    })
+}
+
+/// Every boundary loop as one closed curve, or split into open curves at its sharp corners
+/// ([`SHARP_TURN_DEG`]); see the module documentation for the rules. Curves run along the
+/// boundary halfedges (surface on the left).
+pub fn boundary_curves(mesh: &TriMesh) -> Vec<DetectedCurve> {
+    let edges: Vec<usize> = (0..mesh.n_edges())
+        .filter(|&e| mesh.is_boundary_edge(e))
+        .collect();
+    chain_edges(mesh, &edges, |_| false)
+}
+
+/// Angle (radians) between the direction `p → v` and the direction `v → n`.
+fn turn_angle(mesh: &TriMesh, p: usize, v: usize, n: usize) -> f64 {
+    let a = mesh.position(v) - mesh.position(p);
+    let b = mesh.position(n) - mesh.position(v);
+    a.cross(b).length().atan2(a.dot(b))
+}
+
+/// Chains `edges` (ids, any order) into curves by the module's rules; `extra_split` marks further
+/// split points.
+fn chain_edges(
+    mesh: &TriMesh,
+    edges: &[usize],
+    extra_split: impl Fn(usize) -> bool,
+) -> Vec<DetectedCurve> {
+    let nv = mesh.n_vertices();
+    let mut chosen = vec![false; mesh.n_edges()];
+    let mut adj: Vec<Vec<usize>> = vec![Vec::new(); nv];
+    for &e in edges {
+        if std::mem::replace(&mut chosen[e], true) {
+            continue;
+        }
+        let [a, b] = mesh.edge_vertices(e);
+        adj[a].push(e);
+        adj[b].push(e);
+    }
+    let other = |e: usize, v: usize| {
+        let [a, b] = mesh.edge_vertices(e);
+        if a == v { b } else { a }
+    };
+    let sharp = SHARP_TURN_DEG.to_radians();
+    let split: Vec<bool> = (0..nv)
+        .map(|v| match adj[v].as_slice() {
+            [] => false,
+            &[e1, e2] => extra_split(v) || turn_angle(mesh, other(e1, v), v, other(e2, v)) > sharp,
+            _ => true,
+        })
+        .collect();
+
+    let mut used = vec![false; mesh.n_edges()];
+    // Walks from `start` away along `e`, marking edges used, until a split point, `stop` or a
+    // used edge; returns the vertices after `start`.
+    let walk = |used: &mut Vec<bool>, start: usize, mut e: usize, stop: usize| {
+        let mut out = Vec::new();
+        let mut cur = start;
+        loop {
+            used[e] = true;
+            cur = other(e, cur);
+            out.push(cur);
+            if split[cur] || cur == stop {
+                break;
+            }
+            match adj[cur].iter().copied().find(|&g| g != e && !used[g]) {
+                Some(g) => e = g,
+                None => break,
+            }
+        }
+        out
+    };
+
+    let mut curves = Vec::new();
+    for e0 in 0..mesh.n_edges() {
+        if !chosen[e0] || used[e0] {
+            continue;
+        }
+        let h0 = mesh.edge_halfedges(e0).0;
+        let (a, b) = (mesh.from(h0), mesh.to(h0));
+        let forward = walk(&mut used, a, e0, a);
+        let end = *forward.last().expect("a walk takes at least one edge");
+        if end == a && !split[a] {
+            // A loop without any split point.
+            let mut vertices = vec![a];
+            vertices.extend_from_slice(&forward[..forward.len() - 1]);
+            curves.push(DetectedCurve {
+                vertices,
+                closed: true,
+            });
+            continue;
+        }
+        let mut path = Vec::new();
+        if !split[a]
+            && let Some(g) = adj[a].iter().copied().find(|&g| g != e0 && !used[g])
+        {
+            path = walk(&mut used, a, g, b);
+            path.reverse();
+        }
+        path.push(a);
+        path.extend(forward);
+        if path.len() > 2 && path[0] == path[path.len() - 1] {
+            // A loop with exactly one split point: cut it there and half-way around.
+            let mid = (path.len() - 1) / 2;
+            curves.push(DetectedCurve {
+                vertices: path[..=mid].to_vec(),
+                closed: false,
+            });
+            curves.push(DetectedCurve {
+                vertices: path[mid..].to_vec(),
+                closed: false,
+            });
+        } else {
+            curves.push(DetectedCurve {
+                vertices: path,
+                closed: false,
+            });
+        }
+    }
+    curves
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::HashMap;
+
+    use glam::DVec3;
+
+    use super::*;
+    use crate::constraint::{check_path, halfedge_between};
+    use crate::mesh::generate;
+
+    /// The unit cube's 12 triangles (outward normals), subdivided `levels` times.
+    fn cube(levels: usize) -> TriMesh {
+        let p: Vec<DVec3> = (0..8)
+            .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64))
+            .collect();
+        // Quads counter-clockwise seen from outside.
+        let quads = [
+            [0, 2, 3, 1], // z = 0
+            [4, 5, 7, 6], // z = 1
+            [0, 1, 5, 4], // y = 0
+            [2, 6, 7, 3], // y = 1
+            [0, 4, 6, 2], // x = 0
+            [1, 3, 7, 5], // x = 1
+        ];
+        let t: Vec<[u32; 3]> = quads
+            .iter()
+            .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
+            .collect();
+        let mut m = TriMesh::from_triangles(p, t).unwrap();
+        for _ in 0..levels {
+            m = generate::subdivide(&m);
+        }
+        m
+    }
+
+    /// A capped cylinder: `generate::cylinder` with a fan at each end (two circular creases).
+    fn capped_cylinder(nu: usize) -> TriMesh {
+        let open = generate::cylinder(1.0, 2.0, nu, 3);
+        let mut p = open.positions().to_vec();
+        let mut t = open.faces().to_vec();
+        let top = (3 * nu) as u32;
+        let (c0, c1) = (p.len() as u32, p.len() as u32 + 1);
+        p.push(DVec3::new(0.0, 0.0, 0.0));
+        p.push(DVec3::new(0.0, 0.0, 2.0));
+        for i in 0..nu as u32 {
+            let j = (i + 1) % nu as u32;
+            t.push([c0, j, i]);
+            t.push([c1, top + i, top + j]);
+        }
+        TriMesh::from_triangles(p, t).unwrap()
+    }
+
+    /// A convex teardrop: a circular arc and the two tangents to a tip, fanned from the centre;
+    /// the tip (vertex 1) is the boundary's only sharp corner (120°).
+    fn teardrop() -> TriMesh {
+        let mut p = vec![DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0)];
+        let (t0, t1) = (60f64.to_radians(), 300f64.to_radians());
+        let (a, b) = (DVec3::new(t0.cos(), t0.sin(), 0.0), p[1]);
+        for k in 1..3 {
+            p.push(b.lerp(a, k as f64 / 3.0));
+        }
+        for k in 0..=16 {
+            let t = t0 + (t1 - t0) * k as f64 / 16.0;
+            p.push(DVec3::new(t.cos(), t.sin(), 0.0));
+        }
+        let last = p[p.len() - 1];
+        for k in 1..3 {
+            p.push(last.lerp(b, k as f64 / 3.0));
+        }
+        let n = p.len() as u32;
+        let t = (1..n)
+            .map(|i| [0, i, if i + 1 == n { 1 } else { i + 1 }])
+            .collect();
+        TriMesh::from_triangles(p, t).unwrap()
+    }
+
+    /// Every curve passes `check_path`, and every edge of `expected` lies on exactly one curve
+    /// and no other edge on any.
+    fn assert_covers(mesh: &TriMesh, curves: &[DetectedCurve], expected: &[usize]) {
+        let mut count: HashMap<usize, usize> = HashMap::new();
+        for c in curves {
+            check_path(mesh, &c.vertices, c.closed).unwrap_or_else(|e| panic!("{c:?}: {e}"));
+            let n = c.vertices.len();
+            let pairs = (0..n - 1)
+                .map(|i| (i, i + 1))
+                .chain(c.closed.then_some((n - 1, 0)));
+            for (i, j) in pairs {
+                let h = halfedge_between(mesh, c.vertices[i], c.vertices[j]).unwrap();
+                *count.entry(mesh.edge(h)).or_default() += 1;
+            }
+        }
+        for &e in expected {
+            assert_eq!(count.remove(&e), Some(1), "edge {e}");
+        }
+        assert!(
+            count.is_empty(),
+            "edges on curves but not expected: {count:?}"
+        );
+    }
+
+    fn boundary_edges(mesh: &TriMesh) -> Vec<usize> {
+        (0..mesh.n_edges())
+            .filter(|&e| mesh.is_boundary_edge(e))
+            .collect()
+    }
+
+    #[test]
+    fn cube_edges_are_twelve_curves() {
+        let m = cube(2);
+        let fe = feature_edges(&m, 40.0);
+        assert_eq!(fe.len(), 12 * 4);
+        let curves = detect_features(&m, 40.0);
+        assert_eq!(curves.len(), 12);
+        for c in &curves {
+            assert!(!c.closed);
+            assert_eq!(c.vertices.len(), 5, "{c:?}");
+            // Both ends are cube corners (the first 8 vertices survive subdivision).
+            assert!(c.vertices[0] < 8 && c.vertices[4] < 8, "{c:?}");
+            assert!(c.vertices[1..4].iter().all(|&v| v >= 8), "{c:?}");
+        }
+        assert_covers(&m, &curves, &fe);
+        // Ordered by each chain's smallest edge id.
+        let smallest: Vec<usize> = curves
+            .iter()
+            .map(|c| {
+                c.vertices
+                    .windows(2)
+                    .map(|w| m.edge(halfedge_between(&m, w[0], w[1]).unwrap()))
+                    .min()
+                    .unwrap()
+            })
+            .collect();
+        assert!(smallest.windows(2).all(|w| w[0] < w[1]), "{smallest:?}");
+        // Deterministic.
+        assert_eq!(curves, detect_features(&m, 40.0));
+        // Above 90° nothing is a feature.
+        assert!(detect_features(&m, 91.0).is_empty());
+    }
+
+    #[test]
+    fn unsubdivided_cube_edges_are_single_edge_curves() {
+        let m = cube(0);
+        let curves = detect_features(&m, 40.0);
+        assert_eq!(curves.len(), 12);
+        assert!(curves.iter().all(|c| !c.closed && c.vertices.len() == 2));
+        assert_covers(&m, &curves, &feature_edges(&m, 40.0));
+    }
+
+    #[test]
+    fn flat_grid_has_no_features() {
+        let m = generate::grid(6, 4, 3.0, 2.0);
+        assert!(feature_edges(&m, 1.0).is_empty());
+        assert!(detect_features(&m, 1.0).is_empty());
+    }
+
+    #[test]
+    fn capped_cylinder_creases_are_two_closed_curves() {
+        let m = capped_cylinder(16);
+        let fe = feature_edges(&m, 40.0);
+        assert_eq!(fe.len(), 32);
+        let curves = detect_features(&m, 40.0);
+        assert_eq!(curves.len(), 2);
+        assert!(curves.iter().all(|c| c.closed && c.vertices.len() == 16));
+        assert_covers(&m, &curves, &fe);
+    }
+
+    #[test]
+    fn feature_meeting_the_boundary_is_split_there() {
+        // A grid folded by 90° along its middle column: one crease from boundary to boundary.
+        let mut m = generate::grid(4, 3, 4.0, 3.0);
+        let p = m
+            .positions()
+            .iter()
+            .map(|q| {
+                if q.x > 2.0 {
+                    DVec3::new(2.0, q.y, q.x - 2.0)
+                } else {
+                    *q
+                }
+            })
+            .collect();
+        m.set_positions(p);
+        let fe = feature_edges(&m, 40.0);
+        assert_eq!(fe.len(), 3);
+        let curves = detect_features(&m, 40.0);
+        assert_eq!(curves.len(), 1);
+        let c = &curves[0];
+        assert!(!c.closed);
+        assert_eq!(c.vertices.len(), 4);
+        assert!(m.is_boundary_vertex(c.vertices[0]) && m.is_boundary_vertex(c.vertices[3]));
+        assert!(c.vertices.iter().all(|&v| m.position(v).x == 2.0));
+        assert_covers(&m, &curves, &fe);
+    }
+
+    #[test]
+    fn feature_through_a_boundary_vertex_is_split_there() {
+        // A fan around boundary vertex 0 (ring at 0°, 10°, 90°, 170°, 180°) with the two outer
+        // triangles bent down: creases 0-2 and 0-4 meet at 0 turning by only 20°, but 0 is on
+        // the boundary.
+        let mut p = vec![DVec3::ZERO];
+        for (deg, z) in [
+            (0.0, -1.0),
+            (10.0, 0.0),
+            (90.0, 0.0),
+            (170.0, 0.0),
+            (180.0, -1.0),
+        ] {
+            let t = f64::to_radians(deg);
+            p.push(DVec3::new(t.cos(), t.sin(), z));
+        }
+        let m = TriMesh::from_triangles(p, (1..5).map(|i| [0, i, i + 1]).collect()).unwrap();
+        let fe = feature_edges(&m, 40.0);
+        assert_eq!(fe.len(), 2);
+        let curves = detect_features(&m, 40.0);
+        assert_eq!(curves.len(), 2, "{curves:?}");
+        for c in &curves {
+            assert!(
+                !c.closed && c.vertices.len() == 2 && c.vertices.contains(&0),
+                "{c:?}"
+            );
+        }
+        assert_covers(&m, &curves, &fe);
+    }
+
+    #[test]
+    fn grid_boundary_splits_at_its_corners() {
+        let (nx, ny) = (5, 3);
+        let m = generate::grid(nx, ny, 5.0, 3.0);
+        let curves = boundary_curves(&m);
+        assert_eq!(curves.len(), 4);
+        let corners = [0, nx, (nx + 1) * ny, (nx + 1) * (ny + 1) - 1];
+        let mut lengths: Vec<usize> = curves.iter().map(|c| c.vertices.len()).collect();
+        lengths.sort();
+        assert_eq!(lengths, vec![ny + 1, ny + 1, nx + 1, nx + 1]);
+        for c in &curves {
+            assert!(!c.closed);
+            assert!(corners.contains(&c.vertices[0]), "{c:?}");
+            assert!(corners.contains(c.vertices.last().unwrap()), "{c:?}");
+            // Along the boundary halfedges (surface on the left).
+            for w in c.vertices.windows(2) {
+                let h = halfedge_between(&m, w[0], w[1]).unwrap();
+                assert_eq!((m.from(h), m.to(h)), (w[0], w[1]));
+            }
+        }
+        assert_covers(&m, &curves, &boundary_edges(&m));
+    }
+
+    #[test]
+    fn disc_boundary_is_one_closed_curve() {
+        let m = generate::disc(1.0, 6);
+        let curves = boundary_curves(&m);
+        assert_eq!(curves.len(), 1);
+        assert!(curves[0].closed);
+        assert_eq!(curves[0].vertices.len(), 24);
+        assert_covers(&m, &curves, &boundary_edges(&m));
+    }
+
+    #[test]
+    fn cylinder_boundary_is_two_closed_curves() {
+        let m = generate::cylinder(1.0, 2.0, 12, 4);
+        let curves = boundary_curves(&m);
+        assert_eq!(curves.len(), 2);
+        assert!(curves.iter().all(|c| c.closed && c.vertices.len() == 12));
+        assert_covers(&m, &curves, &boundary_edges(&m));
+        // A closed mesh has no boundary curves.
+        assert!(boundary_curves(&cube(1)).is_empty());
+    }
+
+    #[test]
+    fn loop_with_one_corner_is_cut_there_and_half_way() {
+        let m = teardrop();
+        let n_boundary = boundary_edges(&m).len();
+        assert_eq!(n_boundary, 22);
+        let curves = boundary_curves(&m);
+        assert_eq!(curves.len(), 2, "{curves:?}");
+        let (a, b) = (&curves[0], &curves[1]);
+        assert!(!a.closed && !b.closed);
+        assert_eq!(a.vertices[0], 1);
+        assert_eq!(*b.vertices.last().unwrap(), 1);
+        assert_eq!(a.vertices.last(), b.vertices.first());
+        assert_eq!(a.vertices.len() - 1, n_boundary / 2);
+        assert_eq!(b.vertices.len() - 1, n_boundary - n_boundary / 2);
+        assert_covers(&m, &curves, &boundary_edges(&m));
+    }
+}

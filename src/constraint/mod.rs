@@ -1,0 +1,158 @@
+//! Constraint curves (thesis sec. 4.4): edge paths on the mesh that a parameter line must follow
+//! exactly (`geometric`) or whose layout only is prescribed (`combinatorial`: the singularities
+//! on one parameter line, a closed loop that closes instead of spiralling). Plain data: the
+//! curves themselves ([`Curve`]), their checks ([`check_path`]), edge paths between picked
+//! vertices ([`shortest_edge_path`]), sharp features and boundary loops as curves ([`detect`]) and
+//! the field's alignment to geometric curves ([`alignment`]). QuadCover's use of them
+//! (eq. 4.5–4.9, alg. 7) is in `param::constraints`.
+
+pub mod align;
+pub mod detect;
+mod path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::mesh::TriMesh;
+
+pub use align::{CurveAlignment, alignment};
+pub use detect::{DetectedCurve, boundary_curves, detect_features, feature_edges};
+pub use path::shortest_edge_path;
+
+/// Whether a parameter line runs exactly along the curve, or only the layout it implies holds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CurveKind {
+    #[default]
+    Geometric,
+    Combinatorial,
+}
+
+impl CurveKind {
+    pub fn label(self) -> &'static str {
+        match self {
+            CurveKind::Geometric => "geometric",
+            CurveKind::Combinatorial => "combinatorial",
+        }
+    }
+    pub fn toggled(self) -> CurveKind {
+        match self {
+            CurveKind::Geometric => CurveKind::Combinatorial,
+            CurveKind::Combinatorial => CurveKind::Geometric,
+        }
+    }
+}
+
+/// Where a curve came from: drawn (or written in a project), detected as a sharp feature, or a
+/// piece of a boundary loop (`align_boundary`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CurveOrigin {
+    #[default]
+    Drawn,
+    Feature,
+    Boundary,
+}
+
+/// A constraint curve over mesh edges, in mesh vertex indices: consecutive vertices share an
+/// edge, and so do the last and the first when `closed` (the first is not repeated).
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct Curve {
+    pub id: u32,
+    pub vertices: Vec<usize>,
+    pub closed: bool,
+    pub kind: CurveKind,
+    pub origin: CurveOrigin,
+}
+
+impl Curve {
+    /// The curve's edges as (from, to) vertex pairs, in order (the closing one last).
+    pub fn segments(&self) -> Vec<(usize, usize)> {
+        let v = &self.vertices;
+        let mut s: Vec<(usize, usize)> = v.windows(2).map(|w| (w[0], w[1])).collect();
+        if self.closed && v.len() > 2 {
+            s.push((v[v.len() - 1], v[0]));
+        }
+        s
+    }
+}
+
+/// A halfedge of the edge between `a` and `b` (the one from `a` to `b` when it exists; on a
+/// boundary edge only one of the two does), if they share an edge.
+pub fn halfedge_between(mesh: &TriMesh, a: usize, b: usize) -> Option<usize> {
+    if a >= mesh.n_vertices() || b >= mesh.n_vertices() {
+        return None;
+    }
+    mesh.outgoing(a)
+        .find(|&h| mesh.to(h) == b)
+        .or_else(|| mesh.outgoing(b).find(|&h| mesh.to(h) == a))
+}
+
+/// Checks a curve's vertex list against the mesh: at least two vertices (three when closed),
+/// every vertex on the mesh, consecutive ones sharing an edge, no edge used twice. The error
+/// names the positions (0-based) involved.
+pub fn check_path(mesh: &TriMesh, vertices: &[usize], closed: bool) -> Result<(), String> {
+    let need = if closed { 3 } else { 2 };
+    if vertices.len() < need {
+        return Err(format!(
+            "a{} curve needs at least {need} vertices, this one has {}",
+            if closed { " closed" } else { "n open" },
+            vertices.len()
+        ));
+    }
+    for (i, &v) in vertices.iter().enumerate() {
+        if v >= mesh.n_vertices() {
+            return Err(format!(
+                "vertex {v} at position {i} is out of range (the mesh has {} vertices)",
+                mesh.n_vertices()
+            ));
+        }
+    }
+    let n = vertices.len();
+    let mut used = std::collections::HashSet::new();
+    let pairs = (0..n - 1)
+        .map(|i| (i, i + 1))
+        .chain(closed.then_some((n - 1, 0)));
+    for (i, j) in pairs {
+        let (a, b) = (vertices[i], vertices[j]);
+        let Some(h) = halfedge_between(mesh, a, b).filter(|_| a != b) else {
+            return Err(format!(
+                "vertices {a} and {b} at positions {i} and {j} share no edge"
+            ));
+        };
+        if !used.insert(mesh.edge(h)) {
+            return Err(format!(
+                "the edge {a}-{b} at positions {i} and {j} is used twice"
+            ));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::generate;
+
+    #[test]
+    fn paths_are_checked_with_their_positions() {
+        let m = generate::grid(4, 4, 1.0, 1.0);
+        // Vertices of the grid are numbered row by row (5 per row).
+        assert!(check_path(&m, &[0, 1, 2], false).is_ok());
+        let e = check_path(&m, &[0, 1, 7], false).unwrap_err();
+        assert!(e.contains("positions 1 and 2"), "{e}");
+        assert!(check_path(&m, &[0], false).is_err());
+        assert!(
+            check_path(&m, &[0, 99], false)
+                .unwrap_err()
+                .contains("position 1")
+        );
+        assert!(
+            check_path(&m, &[0, 1, 0], false)
+                .unwrap_err()
+                .contains("twice")
+        );
+        // Boundary edges in both directions.
+        assert!(check_path(&m, &[1, 0], false).is_ok());
+        assert!(check_path(&m, &[0, 1, 6, 5], true).is_ok());
+    }
+}

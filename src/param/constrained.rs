@@ -1,0 +1,191 @@
+//! The global step under geometric constraints (alg. 7 step 6, C_g ũ = b of eq. 4.7), by
+//! elimination: a vertex on one line gets the unknowns (along the line's normal, along the
+//! line) with the first fixed; a vertex on two lines (a corner of the curves) is fixed. One
+//! fixed component is not a complex-linear condition, so the system is assembled in its real
+//! 2×2-block form (twice the unknowns of the complex one; factored once per solve).
+//!
+//! A component whose energy is invariant under translations has one vertex pinned at 0 in the
+//! unconstrained step; with lines on it, the lines fix the translation across them, and the
+//! pin keeps only the directions they leave free (otherwise it would pull every line through
+//! the pinned vertex's lattice point).
+
+use std::collections::BTreeMap;
+
+use glam::DVec3;
+
+use super::ParamError;
+use super::constraints::VertexFix;
+use super::cut::{CutGraph, NONE};
+use super::global::{GlobalSystem, stiffness};
+use super::rot::{M2, Rots, apply, mul, transpose};
+use crate::mesh::TriMesh;
+use crate::sparse::{SparseBuilder, SpdSolver};
+
+/// Per corner ψ (disk frames) minimising the global energy with the gaps `w` fixed and the
+/// vertex constraints `fixes` holding exactly.
+pub(crate) fn solve(
+    mesh: &TriMesh,
+    cut: &CutGraph,
+    global: &GlobalSystem,
+    rots: &Rots,
+    disk: &[[DVec3; 2]],
+    w: &[[f64; 2]],
+    fixes: &BTreeMap<usize, VertexFix>,
+) -> Result<Vec<[f64; 2]>, ParamError> {
+    let nv = mesh.n_vertices();
+    let mut fixes = fixes.clone();
+    pin_translations(mesh, cut, global, &mut fixes);
+    // Per vertex the basis Q (columns) of its unknowns and the fixed components.
+    let mut q: Vec<M2> = vec![[1.0, 0.0, 0.0, 1.0]; nv];
+    let mut fixed: Vec<Option<f64>> = vec![None; 2 * nv];
+    for (&v, fix) in &fixes {
+        match *fix {
+            VertexFix::One { m, value } => {
+                q[v] = [m[0], -m[1], m[1], m[0]];
+                fixed[2 * v] = Some(value);
+            }
+            VertexFix::Both { x } => {
+                fixed[2 * v] = Some(x[0]);
+                fixed[2 * v + 1] = Some(x[1]);
+            }
+        }
+    }
+    let var_of = |c: usize| -> Option<usize> {
+        let v = mesh.from(c);
+        (!cut.singular[v]).then_some(v)
+    };
+    for v in 0..nv {
+        if cut.singular[v] {
+            fixed[2 * v] = Some(0.0);
+            fixed[2 * v + 1] = Some(0.0);
+        }
+    }
+    let targets = GlobalSystem::targets(mesh, disk);
+    let consts: Vec<[f64; 2]> = global.corner_lin.iter().map(|l| l.eval(w)).collect();
+    let mut b = SparseBuilder::<f64>::with_capacity(2 * nv, 2 * nv + 36 * mesh.n_faces());
+    let mut rhs = vec![0.0; 2 * nv];
+    for i in 0..2 * nv {
+        if fixed[i].is_some() {
+            b.add(i, i, 1.0);
+            rhs[i] = fixed[i].unwrap_or(0.0);
+        } else {
+            // Explicit zero keeps every diagonal in the pattern.
+            b.add(i, i, 0.0);
+        }
+    }
+    for f in 0..mesh.n_faces() {
+        let k = stiffness(mesh, f);
+        for a in 0..3 {
+            let ca = 3 * f + a;
+            let Some(va) = var_of(ca) else { continue };
+            let ra = global.corner_rot[ca] as i64;
+            let qa_t = transpose(&q[va]);
+            // rhs: Q_aᵀ R^{-rot_a} (b_a − Σ_b k_ab c_b)
+            let mut r = targets[ca];
+            for bb in 0..3 {
+                let c = consts[3 * f + bb];
+                r[0] -= k[a][bb] * c[0];
+                r[1] -= k[a][bb] * c[1];
+            }
+            let r = apply(&qa_t, apply(rots.get(-ra), r));
+            for i in 0..2 {
+                if fixed[2 * va + i].is_none() {
+                    rhs[2 * va + i] += r[i];
+                }
+            }
+            for bb in 0..3 {
+                let cb = 3 * f + bb;
+                let Some(vb) = var_of(cb) else { continue };
+                let rb = global.corner_rot[cb] as i64;
+                let blk = mul(&qa_t, &mul(rots.get(rb - ra), &q[vb]));
+                for i in 0..2 {
+                    let row = 2 * va + i;
+                    if fixed[row].is_some() {
+                        continue;
+                    }
+                    for j in 0..2 {
+                        let col = 2 * vb + j;
+                        let val = k[a][bb] * blk[2 * i + j];
+                        match fixed[col] {
+                            Some(y) => rhs[row] -= val * y,
+                            None => b.add(row, col, val),
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let matrix = b.build()?;
+    let y = SpdSolver::new(&matrix)?.solve(&rhs)?;
+    Ok((0..3 * mesh.n_faces())
+        .map(|c| {
+            let mut p = consts[c];
+            if let Some(v) = var_of(c) {
+                let x = apply(&q[v], [y[2 * v], y[2 * v + 1]]);
+                let x = apply(rots.get(global.corner_rot[c] as i64), x);
+                p[0] += x[0];
+                p[1] += x[1];
+            }
+            p
+        })
+        .collect())
+}
+
+/// Replaces the unconstrained step's pins (one vertex per translation-invariant component)
+/// by what the lines leave free: nothing when they fix both directions, the direction along
+/// them when all are parallel, both when there are none.
+fn pin_translations(
+    mesh: &TriMesh,
+    cut: &CutGraph,
+    global: &GlobalSystem,
+    fixes: &mut BTreeMap<usize, VertexFix>,
+) {
+    let comp = |v: usize| cut.comp_of_face[mesh.face_of(mesh.vertex_halfedge(v))] as usize;
+    for p in 0..mesh.n_vertices() {
+        if cut.singular[p] || global.corner_var[mesh.vertex_halfedge(p)] != NONE {
+            continue;
+        }
+        // p is the pinned vertex of its component; all rotations there are 0, so the vertex
+        // frames agree and normals compare directly.
+        let c = comp(p);
+        let mut first: Option<[f64; 2]> = None;
+        let mut spans_two = false;
+        for (&v, fix) in fixes.iter() {
+            if comp(v) != c {
+                continue;
+            }
+            match *fix {
+                VertexFix::Both { .. } => spans_two = true,
+                VertexFix::One { m, .. } => match first {
+                    None => first = Some(m),
+                    Some(m0) if (m0[0] * m[0] + m0[1] * m[1]).abs() < 1.0 - 1e-6 => {
+                        spans_two = true
+                    }
+                    _ => {}
+                },
+            }
+        }
+        if spans_two {
+            continue;
+        }
+        let pin = match (first, fixes.get(&p).copied()) {
+            (None, _) => VertexFix::Both { x: [0.0, 0.0] },
+            (Some(m0), Some(VertexFix::One { value, .. })) => {
+                // x = value m0 (+ 0 along the line); m0 is the pinned vertex's own normal up to
+                // sign, which `value` already carries.
+                let m = match fixes.get(&p) {
+                    Some(VertexFix::One { m, .. }) => *m,
+                    _ => m0,
+                };
+                VertexFix::Both {
+                    x: [value * m[0], value * m[1]],
+                }
+            }
+            (Some(m0), _) => VertexFix::One {
+                m: [-m0[1], m0[0]],
+                value: 0.0,
+            },
+        };
+        fixes.insert(p, pin);
+    }
+}

@@ -1,0 +1,832 @@
+//! QuadCover with constraints (thesis sec. 4.4.1, alg. 7).
+//!
+//! Each curve δ_κ is traced over the faces on its left side (the reversed curve's when the
+//! left side is not complete, e.g. along a boundary), composing the transitions of every edge
+//! crossed, so the chart of the first face maps to the chart of every later one. In the first
+//! face, one line family λ (normal n_λ of a lattice line) and the value c_κ (an integer, in
+//! units of the line spacing s) give the line n_λᵀφ = s c_κ (eq. 4.5); in a later face it reads
+//! (R^ρ n_λ)ᵀφ = s c_κ + (R^ρ n_λ)ᵀ t(W) (eq. 4.6). λ is the family along which the local step's
+//! map runs along the curve; c_κ is the average of the local step's values on the curve.
+//!
+//! At a regular vertex the line is a linear equation in the vertex's unknown (eq. 4.7, C_g); at
+//! a branch point, whose value eq. 2.40 fixes by the gaps, and wherever a vertex is met twice
+//! by lines of one family (curves meeting each other or themselves, a closed curve closing),
+//! it is an integer equation in the gaps and the c_κ (eq. 4.8, 4.9, C_c). The integer unknowns
+//! are the gaps' lattice coordinates and the c_κ; they are rounded to the nearest solution of
+//! C_c w = 0 ([`super::integer`]); the global step then runs with the geometric equations
+//! eliminated ([`super::constrained`]).
+//!
+//! Contradictions are reported with the curves involved: a closed curve whose line family
+//! turns on the way round (it encloses singularities whose indices do not add up to a multiple
+//! of 1/(N/2)... i.e. it cannot close as one line), and a geometric curve across which the map
+//! runs on a large part of its length (it would have to change line family, e.g. through a
+//! singularity).
+
+use std::collections::BTreeMap;
+
+use glam::DVec3;
+
+use super::ParamError;
+use super::cut::{CutGraph, NONE, step};
+use super::global::GlobalSystem;
+use super::rot::{Aff, Lattice, Lin, Rots, apply, transpose};
+use crate::mesh::TriMesh;
+
+/// A constraint curve as QuadCover takes it: mesh vertices (consecutive ones sharing an edge,
+/// the first not repeated when `closed`).
+#[derive(Clone, Copy, Debug)]
+pub struct ConstraintCurve<'a> {
+    pub id: u32,
+    pub vertices: &'a [usize],
+    pub closed: bool,
+    /// A parameter line runs exactly along it (otherwise only the layout is prescribed).
+    pub geometric: bool,
+}
+
+/// How a solved curve sits in the map.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CurveFit {
+    pub id: u32,
+    pub geometric: bool,
+    /// Line family λ in the first face's chart (0..N/2 for N = 4, 6; 0, 1 for N = 2).
+    pub family: u8,
+    /// The line's value s·c_κ in the first face's chart.
+    pub value: f64,
+    /// Largest |n·φ − value| over the curve's vertices in the final map (0 up to rounding for
+    /// geometric curves; how far the map is from the curve for combinatorial ones).
+    pub max_offset: f64,
+    /// Branch points on the curve.
+    pub singular_vertices: Vec<usize>,
+}
+
+/// Largest factor the equations' rational coefficients need to become integers (branch points
+/// sit on (1/2)Z², (1/3)-points of G6, ...).
+const DENOMINATOR: f64 = 12.0;
+
+/// Fraction of a geometric curve's length on which the map may run across it before the
+/// curve is reported as not representable by one parameter line.
+const ACROSS_FRACTION: f64 = 0.25;
+
+/// Line normals n_λ, the line spacing s and the lattice basis L (columns) of a symmetry.
+pub(crate) struct Lines {
+    pub normals: Vec<[f64; 2]>,
+    pub spacing: f64,
+    pub basis: [[f64; 2]; 2],
+    /// Tolerance of the direction test: tan of half the angle between families.
+    pub across: f64,
+}
+
+impl Lines {
+    pub fn new(n: usize, lattice: Lattice) -> Lines {
+        match lattice {
+            Lattice::G6 => {
+                let s3 = 3f64.sqrt();
+                let normals = (0..3)
+                    .map(|l| {
+                        let a = std::f64::consts::FRAC_PI_2 + std::f64::consts::PI * l as f64 / 3.0;
+                        [a.cos(), a.sin()]
+                    })
+                    .collect();
+                Lines {
+                    normals,
+                    spacing: s3 / 2.0,
+                    basis: [[1.0, 0.0], [0.5, s3 / 2.0]],
+                    across: (std::f64::consts::PI / 6.0).tan(),
+                }
+            }
+            _ => {
+                let scale = if lattice == Lattice::TwoZ2 { 2.0 } else { 1.0 };
+                let _ = n;
+                Lines {
+                    normals: vec![[1.0, 0.0], [0.0, 1.0]],
+                    spacing: 1.0,
+                    basis: [[scale, 0.0], [0.0, scale]],
+                    across: 1.0,
+                }
+            }
+        }
+    }
+    /// Lattice coordinates of a gap vector.
+    pub fn coords(&self, w: [f64; 2]) -> [f64; 2] {
+        let [[a, c], [b, d]] = self.basis; // columns (a, c), (b, d)
+        let det = a * d - b * c;
+        [(d * w[0] - b * w[1]) / det, (-c * w[0] + a * w[1]) / det]
+    }
+    pub fn vector(&self, a: [f64; 2]) -> [f64; 2] {
+        let [g1, g2] = self.basis;
+        [a[0] * g1[0] + a[1] * g2[0], a[0] * g1[1] + a[1] * g2[1]]
+    }
+}
+
+/// A linear form in the integer unknowns (gap coordinates 2k, 2k + 1; curve values 2K + κ),
+/// in units of the line spacing.
+type Form = BTreeMap<usize, f64>;
+
+fn form_add(a: &mut Form, b: &Form, f: f64) {
+    for (&k, &v) in b {
+        *a.entry(k).or_insert(0.0) += f * v;
+    }
+}
+
+fn eval(form: &Form, w: &[f64]) -> f64 {
+    form.iter().map(|(&k, &v)| v * w[k]).sum()
+}
+
+/// nᵀ lin(W) / s as a form in the gaps' lattice coordinates.
+fn lin_form(lin: &Lin, n: [f64; 2], lines: &Lines) -> Form {
+    let mut f = Form::new();
+    for (k, m) in &lin.0 {
+        // nᵀ M L e_j
+        let mt_n = apply(&transpose(m), n);
+        for (j, g) in lines.basis.iter().enumerate() {
+            let v = (mt_n[0] * g[0] + mt_n[1] * g[1]) / lines.spacing;
+            if v.abs() > 1e-12 {
+                *f.entry(2 * *k as usize + j).or_insert(0.0) += v;
+            }
+        }
+    }
+    f
+}
+
+/// One point of a curve where its line constrains the map: corner `h` (a halfedge leaving
+/// `vertex`, in the face whose chart `chart` reaches from the first face).
+struct Emit {
+    vertex: usize,
+    corner: usize,
+    chart: Aff,
+    /// The closing visit of a closed curve's first vertex.
+    closing: bool,
+}
+
+/// One curve edge as the field maps it: the face's chart and the edge's image there.
+struct EdgeImage {
+    chart_rot: u8,
+    d: [f64; 2],
+}
+
+struct Walk {
+    emits: Vec<Emit>,
+    edges: Vec<EdgeImage>,
+}
+
+/// The halfedge from a to b (whose face lies on the left of a -> b).
+fn directed(mesh: &TriMesh, a: usize, b: usize) -> Option<usize> {
+    mesh.outgoing(a).find(|&h| mesh.to(h) == b)
+}
+
+/// Traces a curve over the faces on its left; `None` if some are missing (boundary).
+fn walk_left(
+    mesh: &TriMesh,
+    cut: &CutGraph,
+    rots: &Rots,
+    disk: &[[DVec3; 2]],
+    verts: &[usize],
+    closed: bool,
+) -> Option<Walk> {
+    let mut seq: Vec<usize> = verts.to_vec();
+    if closed {
+        seq.push(verts[0]);
+    }
+    let hs: Vec<usize> = seq
+        .windows(2)
+        .map(|w| directed(mesh, w[0], w[1]))
+        .collect::<Option<_>>()?;
+    let mut chart = Aff::default();
+    let mut emits = vec![Emit {
+        vertex: seq[0],
+        corner: hs[0],
+        chart: chart.clone(),
+        closing: false,
+    }];
+    let mut edges = Vec::with_capacity(hs.len());
+    // The edge's image under the guiding field (disk frame rows): which family the field
+    // runs along here, independent of how much curl the local step removes.
+    let image = |h: usize, chart: &Aff| {
+        let (x, e) = (&disk[mesh.face_of(h)], mesh.vector(h));
+        EdgeImage {
+            chart_rot: chart.rot,
+            d: [x[0].dot(e), x[1].dot(e)],
+        }
+    };
+    edges.push(image(hs[0], &chart));
+    for i in 0..hs.len() {
+        let g0 = mesh.next(hs[i]);
+        let b = seq[i + 1];
+        let last = i + 1 == hs.len();
+        emits.push(Emit {
+            vertex: b,
+            corner: g0,
+            chart: chart.clone(),
+            closing: last && closed,
+        });
+        if last {
+            break;
+        }
+        // Clockwise around b from the face left of a -> b to the face left of b -> c.
+        let mut g = g0;
+        let mut guard = 0;
+        while g != hs[i + 1] {
+            let t = mesh.twin(g)?;
+            let c = mesh.edge(g);
+            chart = step(mesh, &cut.transitions[c], c, mesh.face_of(g), rots).after(&chart, rots);
+            g = mesh.next(t);
+            guard += 1;
+            if guard > 10_000 {
+                return None;
+            }
+        }
+        edges.push(image(hs[i + 1], &chart));
+    }
+    Some(Walk { emits, edges })
+}
+
+/// A vertex-frame line through a regular vertex: mᵀx_v = s·form.
+struct VertexLine {
+    curve: usize,
+    geometric: bool,
+    m: [f64; 2],
+    form: Form,
+}
+
+/// The traced constraints of a set of curves, ready for rounding and the global step.
+pub(crate) struct Traced {
+    lines: Lines,
+    n_gaps: usize,
+    /// Integer equations (scaled by [`DENOMINATOR`]) with the curves (indices) behind each.
+    rows: Vec<(IntRow, Vec<usize>)>,
+    /// Per regular vertex its lines (geometric ones constrain the global step).
+    at_vertex: BTreeMap<usize, Vec<VertexLine>>,
+    /// Per curve the measured value c_κ and its family.
+    measured_c: Vec<f64>,
+    family: Vec<u8>,
+    ids: Vec<u32>,
+    geometric: Vec<bool>,
+    singular_on: Vec<Vec<usize>>,
+    /// Per curve: (vertex, corner, chart) of every emission, to report the fit.
+    emits: Vec<Vec<(usize, usize, Aff)>>,
+}
+
+/// An integer equation Σ a_k w_k = 0, sparse.
+type IntRow = Vec<(usize, i128)>;
+
+/// A constraint of the global step on a regular vertex's unknown x_v (vertex frame).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum VertexFix {
+    /// mᵀx = value.
+    One { m: [f64; 2], value: f64 },
+    /// x = value.
+    Both { x: [f64; 2] },
+}
+
+fn contradiction(ids: &[u32], curves: &[usize], message: String) -> ParamError {
+    let mut c: Vec<u32> = curves.iter().map(|&i| ids[i]).collect();
+    c.sort_unstable();
+    c.dedup();
+    ParamError::Contradiction { curves: c, message }
+}
+
+fn names(ids: &[u32], curves: &[usize]) -> String {
+    let mut c: Vec<u32> = curves.iter().map(|&i| ids[i]).collect();
+    c.sort_unstable();
+    c.dedup();
+    let list: Vec<String> = c.iter().map(|i| i.to_string()).collect();
+    if c.len() == 1 {
+        format!("curve {}", list[0])
+    } else {
+        format!("curves {}", list.join(", "))
+    }
+}
+
+impl Traced {
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        mesh: &TriMesh,
+        cut: &CutGraph,
+        rots: &Rots,
+        lattice: Lattice,
+        global: &GlobalSystem,
+        disk: &[[DVec3; 2]],
+        local_uv: &[[f64; 2]],
+        measured_gaps: &[[f64; 2]],
+        curves: &[ConstraintCurve],
+    ) -> Result<Traced, ParamError> {
+        let lines = Lines::new(rots.n, lattice);
+        let n_gaps = measured_gaps.len();
+        let curve_ids: Vec<u32> = curves.iter().map(|c| c.id).collect();
+        let pieces = split_by_family(mesh, cut, rots, &lines, disk, curves, &curve_ids)?;
+        let ids: Vec<u32> = pieces.iter().map(|p| curves[p.curve].id).collect();
+        let w_measured: Vec<f64> = measured_gaps
+            .iter()
+            .flat_map(|&g| lines.coords(g))
+            .collect();
+        let mut out = Traced {
+            lines,
+            n_gaps,
+            rows: Vec::new(),
+            at_vertex: BTreeMap::new(),
+            measured_c: Vec::new(),
+            family: Vec::new(),
+            ids: ids.clone(),
+            geometric: pieces.iter().map(|p| curves[p.curve].geometric).collect(),
+            singular_on: Vec::new(),
+            emits: Vec::new(),
+        };
+        // Per curve: forms at its emissions.
+        let mut fixed_rows: Vec<(Form, usize)> = Vec::new();
+        for (ci, piece) in pieces.iter().enumerate() {
+            let c = ConstraintCurve {
+                vertices: &piece.vertices,
+                closed: piece.closed,
+                ..curves[piece.curve]
+            };
+            let walk = walk_left(mesh, cut, rots, disk, c.vertices, c.closed)
+                .expect("split_by_family oriented the piece");
+            let lines = &out.lines;
+            // The family along which the field runs along the curve.
+            let family_cost = |l: usize| -> f64 {
+                walk.edges
+                    .iter()
+                    .map(|e| {
+                        let n = apply(rots.get(e.chart_rot as i64), lines.normals[l]);
+                        (n[0] * e.d[0] + n[1] * e.d[1]).abs()
+                    })
+                    .sum()
+            };
+            let lambda = (0..lines.normals.len())
+                .min_by(|&a, &b| family_cost(a).total_cmp(&family_cost(b)))
+                .expect("a family");
+            let n0 = lines.normals[lambda];
+            if c.geometric {
+                check_along(&walk, rots, n0, lines.across).map_err(|frac| {
+                    let sing: Vec<usize> = walk
+                        .emits
+                        .iter()
+                        .filter(|e| cut.singular[e.vertex])
+                        .map(|e| e.vertex)
+                        .collect();
+                    contradiction(
+                        &ids,
+                        &[ci],
+                        format!(
+                            "curve {} cannot be one parameter line: the field runs across it on {:.0} % of its length (it would have to change line family{})",
+                            c.id,
+                            100.0 * frac,
+                            if sing.is_empty() {
+                                String::new()
+                            } else {
+                                format!(", e.g. through the singularity at vertex {}", sing[0])
+                            }
+                        ),
+                    )
+                })?;
+            }
+            let cvar = 2 * n_gaps + ci;
+            let mut c_sum = 0.0;
+            let mut start_m: Option<[f64; 2]> = None;
+            let mut singular_on = Vec::new();
+            let mut emits = Vec::new();
+            for e in &walk.emits {
+                let n = apply(rots.get(e.chart.rot as i64), n0);
+                // Value of the line in this chart: s c + nᵀ t(W).
+                let mut form = lin_form(&e.chart.lin, n, lines);
+                *form.entry(cvar).or_insert(0.0) += 1.0;
+                // c estimate from the local map: nᵀψ/s − nᵀt(W*)/s.
+                let psi = local_uv[e.corner];
+                let mut tf = form.clone();
+                tf.remove(&cvar);
+                c_sum += (n[0] * psi[0] + n[1] * psi[1]) / lines.spacing
+                    - eval_partial(&tf, &w_measured);
+                emits.push((e.vertex, e.corner, e.chart.clone()));
+                let v = e.vertex;
+                if global.corner_var[e.corner] == NONE && cut.singular[v] {
+                    // ψ = corner_lin(W) is fixed: nᵀψ/s = form (eq. 4.9 at a singularity).
+                    let mut row = lin_form(&global.corner_lin[e.corner], n, lines);
+                    form_add(&mut row, &form, -1.0);
+                    fixed_rows.push((row, ci));
+                    if !e.closing {
+                        singular_on.push(v);
+                    }
+                    continue;
+                }
+                // Regular vertex: (R^{-rot} n)ᵀ x = s (form − nᵀ lin_h(W)/s).
+                let m = apply(rots.get(-(global.corner_rot[e.corner] as i64)), n);
+                form_add(
+                    &mut form,
+                    &lin_form(&global.corner_lin[e.corner], n, lines),
+                    -1.0,
+                );
+                if e.closing
+                    && let Some(m0) = start_m
+                    && (m0[0] * m[0] + m0[1] * m[1]).abs() < 1.0 - 1e-6
+                {
+                    let turn = (m0[0] * m[1] - m0[1] * m[0])
+                        .atan2(m0[0] * m[0] + m0[1] * m[1])
+                        .to_degrees()
+                        .round();
+                    return Err(contradiction(
+                        &ids,
+                        &[ci],
+                        format!(
+                            "closed curve {} cannot close as one parameter line: its line family turns by {turn} degrees on the way round (the singularities it encloses)",
+                            c.id
+                        ),
+                    ));
+                }
+                if start_m.is_none() {
+                    start_m = Some(m);
+                }
+                out.at_vertex.entry(v).or_default().push(VertexLine {
+                    curve: ci,
+                    geometric: c.geometric,
+                    m,
+                    form,
+                });
+            }
+            out.measured_c.push(c_sum / walk.emits.len() as f64);
+            out.family.push(lambda as u8);
+            out.singular_on.push(singular_on);
+            out.emits.push(emits);
+        }
+        // Integer equations: fixed values on lines, and lines of one family meeting.
+        let mut rows: Vec<(Form, Vec<usize>)> =
+            fixed_rows.into_iter().map(|(f, c)| (f, vec![c])).collect();
+        for lines_v in out.at_vertex.values() {
+            let mut basis: Vec<usize> = Vec::new();
+            for (i, l) in lines_v.iter().enumerate() {
+                let parallel = basis.iter().copied().find(|&b| {
+                    let mb = lines_v[b].m;
+                    (mb[0] * l.m[0] + mb[1] * l.m[1]).abs() > 1.0 - 1e-6
+                });
+                if let Some(b) = parallel {
+                    let mb = lines_v[b].m;
+                    let sign = (mb[0] * l.m[0] + mb[1] * l.m[1]).signum();
+                    let mut row = l.form.clone();
+                    form_add(&mut row, &lines_v[b].form, -sign);
+                    rows.push((row, vec![l.curve, lines_v[b].curve]));
+                } else if basis.len() < 2 {
+                    basis.push(i);
+                } else {
+                    // A third family (N = 6): m = α m1 + β m2, so form = α form1 + β form2.
+                    let (m1, m2) = (lines_v[basis[0]].m, lines_v[basis[1]].m);
+                    let det = m1[0] * m2[1] - m1[1] * m2[0];
+                    let alpha = (l.m[0] * m2[1] - l.m[1] * m2[0]) / det;
+                    let beta = (m1[0] * l.m[1] - m1[1] * l.m[0]) / det;
+                    let mut row = l.form.clone();
+                    form_add(&mut row, &lines_v[basis[0]].form, -alpha);
+                    form_add(&mut row, &lines_v[basis[1]].form, -beta);
+                    rows.push((
+                        row,
+                        vec![l.curve, lines_v[basis[0]].curve, lines_v[basis[1]].curve],
+                    ));
+                }
+            }
+        }
+        for (row, curves_of) in rows {
+            let mut int_row = Vec::new();
+            for (k, v) in row {
+                let scaled = v * DENOMINATOR;
+                let r = scaled.round();
+                if (scaled - r).abs() > 1e-6 {
+                    return Err(ParamError::InvalidInput(format!(
+                        "{}: a constraint coefficient {v} is not a multiple of 1/{DENOMINATOR}",
+                        names(&ids, &curves_of)
+                    )));
+                }
+                if r != 0.0 {
+                    int_row.push((k, r as i128));
+                }
+            }
+            if !int_row.is_empty() {
+                out.rows.push((int_row, curves_of));
+            }
+        }
+        Ok(out)
+    }
+
+    /// The integer unknowns after rounding: gaps (lattice vectors) and line values s·c_κ.
+    /// `rounded` are the gaps as the plain rounding left them; unknowns in no equation keep
+    /// those (and c_κ its nearest integer), the rest take the nearest solution of C_c w = 0.
+    /// `hessian` is the energy's dependence on the gaps ([`GlobalSystem::gap_hessian`]): the
+    /// rounding is nearest in its metric (the gaps that cost least energy give way), the c_κ,
+    /// which the energy does not see, follow.
+    pub fn round(
+        &self,
+        measured: &[[f64; 2]],
+        rounded: &[[f64; 2]],
+        hessian: &[f64],
+    ) -> Result<(Vec<[f64; 2]>, Vec<f64>), ParamError> {
+        let ng = self.n_gaps;
+        let mut w: Vec<f64> = rounded
+            .iter()
+            .flat_map(|&g| self.lines.coords(g).map(f64::round))
+            .chain(self.measured_c.iter().map(|c| c.round()))
+            .collect();
+        let target: Vec<f64> = measured
+            .iter()
+            .flat_map(|&g| self.lines.coords(g))
+            .chain(self.measured_c.iter().copied())
+            .collect();
+        // Only the unknowns in some equation, renumbered.
+        let mut involved: Vec<usize> = self
+            .rows
+            .iter()
+            .flat_map(|(r, _)| r.iter().map(|&(k, _)| k))
+            .collect();
+        involved.sort_unstable();
+        involved.dedup();
+        if !involved.is_empty() {
+            let local: BTreeMap<usize, usize> =
+                involved.iter().enumerate().map(|(i, &k)| (k, i)).collect();
+            let rows: Vec<Vec<(usize, i128)>> = self
+                .rows
+                .iter()
+                .map(|(r, _)| r.iter().map(|&(k, a)| (local[&k], a)).collect())
+                .collect();
+            let t: Vec<f64> = involved.iter().map(|&k| target[k]).collect();
+            let metric = self.metric(hessian, &involved);
+            let sol =
+                super::integer::nearest_integer_solution(&rows, involved.len(), &t, Some(&metric))
+                    .map_err(|why| {
+                        let all: Vec<usize> = (0..self.ids.len()).collect();
+                        contradiction(
+                            &self.ids,
+                            &all,
+                            format!("{}: {why}", names(&self.ids, &all)),
+                        )
+                    })?;
+            for (i, &k) in involved.iter().enumerate() {
+                w[k] = sol[i] as f64;
+            }
+        }
+        let gaps = (0..ng)
+            .map(|k| self.lines.vector([w[2 * k], w[2 * k + 1]]))
+            .collect();
+        Ok((gaps, w))
+    }
+
+    /// The energy metric on the involved unknowns in lattice coordinates: Lᵀ H L on gap pairs, a
+    /// small weight on the c_κ, a small regularisation throughout.
+    fn metric(&self, hessian: &[f64], involved: &[usize]) -> Vec<f64> {
+        let ng = self.n_gaps;
+        let m = 2 * ng;
+        let n = involved.len();
+        let l = self.lines.basis; // columns
+        // h(a, b) in lattice coordinates: Σ_{r,c} L[r][i] H[2k+r][2l+c] L[c][j].
+        let entry = |a: usize, b: usize| -> f64 {
+            if a >= m || b >= m || hessian.len() != m * m {
+                return 0.0;
+            }
+            let (k, i) = (a / 2, a % 2);
+            let (q, j) = (b / 2, b % 2);
+            let mut s = 0.0;
+            for r in 0..2 {
+                for c in 0..2 {
+                    s += l[i][r] * hessian[(2 * k + r) * m + 2 * q + c] * l[j][c];
+                }
+            }
+            s
+        };
+        let mut out = vec![0.0; n * n];
+        for (x, &a) in involved.iter().enumerate() {
+            for (y, &b) in involved.iter().enumerate() {
+                out[x * n + y] = entry(a, b);
+            }
+        }
+        let trace: f64 = (0..n).map(|i| out[i * n + i]).sum::<f64>();
+        let eps = 1e-6 * (trace / n.max(1) as f64).max(1e-12);
+        for (x, &a) in involved.iter().enumerate() {
+            out[x * n + x] += if a >= m { 1e-3 * eps.max(1e-9) } else { eps };
+        }
+        out
+    }
+
+    /// The global step's vertex constraints for the rounded unknowns `w` (lattice coordinates
+    /// and c_κ, as [`Traced::round`] returns them).
+    pub fn fixes(&self, w: &[f64]) -> BTreeMap<usize, VertexFix> {
+        let s = self.lines.spacing;
+        let mut out = BTreeMap::new();
+        for (&v, lines_v) in &self.at_vertex {
+            let geo: Vec<&VertexLine> = lines_v.iter().filter(|l| l.geometric).collect();
+            let Some(first) = geo.first() else { continue };
+            let second = geo
+                .iter()
+                .find(|l| (l.m[0] * first.m[0] + l.m[1] * first.m[1]).abs() < 1.0 - 1e-6);
+            let a = s * eval(&first.form, w);
+            let fix = match second {
+                None => VertexFix::One {
+                    m: first.m,
+                    value: a,
+                },
+                Some(l2) => {
+                    let b = s * eval(&l2.form, w);
+                    let (m1, m2) = (first.m, l2.m);
+                    let det = m1[0] * m2[1] - m1[1] * m2[0];
+                    VertexFix::Both {
+                        x: [(a * m2[1] - b * m1[1]) / det, (m1[0] * b - m2[0] * a) / det],
+                    }
+                }
+            };
+            out.insert(v, fix);
+        }
+        out
+    }
+
+    pub fn has_geometric(&self) -> bool {
+        self.at_vertex
+            .values()
+            .any(|ls| ls.iter().any(|l| l.geometric))
+    }
+
+    /// How each curve sits in the final map `uv` (per corner).
+    pub fn fits(&self, rots: &Rots, uv: &[[f64; 2]], w: &[f64]) -> Vec<CurveFit> {
+        let ng = self.n_gaps;
+        let gaps: Vec<[f64; 2]> = (0..ng)
+            .map(|k| self.lines.vector([w[2 * k], w[2 * k + 1]]))
+            .collect();
+        (0..self.ids.len())
+            .map(|ci| {
+                let n0 = self.lines.normals[self.family[ci] as usize];
+                let value = self.lines.spacing * w[2 * ng + ci];
+                let max_offset = self.emits[ci]
+                    .iter()
+                    .map(|(_, corner, chart)| {
+                        let n = apply(rots.get(chart.rot as i64), n0);
+                        let t = chart.lin.eval(&gaps);
+                        let psi = uv[*corner];
+                        let line = value + n[0] * t[0] + n[1] * t[1];
+                        (n[0] * psi[0] + n[1] * psi[1] - line).abs()
+                    })
+                    .fold(0.0, f64::max);
+                CurveFit {
+                    id: self.ids[ci],
+                    geometric: self.geometric[ci],
+                    family: self.family[ci],
+                    value,
+                    max_offset,
+                    singular_vertices: self.singular_on[ci].clone(),
+                }
+            })
+            .collect()
+    }
+}
+
+/// Form evaluated on the gap unknowns only (curve values are not in `w_gaps`).
+fn eval_partial(form: &Form, w_gaps: &[f64]) -> f64 {
+    form.iter()
+        .filter(|(k, _)| **k < w_gaps.len())
+        .map(|(&k, &v)| v * w_gaps[k])
+        .sum()
+}
+
+/// A run of a curve along one line family, oriented so that its left faces exist.
+struct Piece {
+    curve: usize,
+    vertices: Vec<usize>,
+    closed: bool,
+}
+
+/// Splits geometric curves where the field's line family along them changes at a regular vertex
+/// (the curve turns a corner of the grid there: the vertex lands on a lattice point); a change
+/// at a branch point is a contradiction (no line passes straight through it). Each curve is
+/// oriented so that its left faces exist (the reversed one along a boundary with the surface on
+/// its right).
+fn split_by_family(
+    mesh: &TriMesh,
+    cut: &CutGraph,
+    rots: &Rots,
+    lines: &Lines,
+    disk: &[[DVec3; 2]],
+    curves: &[ConstraintCurve],
+    ids: &[u32],
+) -> Result<Vec<Piece>, ParamError> {
+    let mut out = Vec::new();
+    for (ci, c) in curves.iter().enumerate() {
+        let reversed: Vec<usize> = c.vertices.iter().rev().copied().collect();
+        let (verts, walk) = match walk_left(mesh, cut, rots, disk, c.vertices, c.closed) {
+            Some(w) => (c.vertices.to_vec(), w),
+            None => match walk_left(mesh, cut, rots, disk, &reversed, c.closed) {
+                Some(w) => (reversed, w),
+                None => {
+                    return Err(contradiction(
+                        ids,
+                        &[ci],
+                        format!(
+                            "curve {} runs along the boundary with the surface on either side in turn; split it where it changes side",
+                            c.id
+                        ),
+                    ));
+                }
+            },
+        };
+        let ne = walk.edges.len();
+        // Each edge's image in the first face's chart, smoothed over its neighbours (a jagged
+        // edge path zigzags about its direction).
+        let back: Vec<[f64; 2]> = walk
+            .edges
+            .iter()
+            .map(|e| apply(rots.get(-(e.chart_rot as i64)), e.d))
+            .collect();
+        let class = |i: usize| -> usize {
+            let mut d = back[i];
+            let around = [
+                i.checked_sub(1).or(c.closed.then(|| ne - 1)),
+                (i + 1 < ne).then_some(i + 1).or(c.closed.then_some(0)),
+            ];
+            for j in around.into_iter().flatten() {
+                d[0] += back[j][0];
+                d[1] += back[j][1];
+            }
+            (0..lines.normals.len())
+                .min_by(|&a, &b| {
+                    let f =
+                        |l: usize| (lines.normals[l][0] * d[0] + lines.normals[l][1] * d[1]).abs();
+                    f(a).total_cmp(&f(b))
+                })
+                .expect("a family")
+        };
+        let classes: Vec<usize> = (0..ne).map(class).collect();
+        // Edge i runs from verts[i] to verts[(i + 1) % len]; a split at vertex index j sits
+        // between edges j − 1 and j.
+        let nv = verts.len();
+        let mut splits: Vec<usize> = (1..ne).filter(|&j| classes[j] != classes[j - 1]).collect();
+        if c.closed && ne > 1 && classes[0] != classes[ne - 1] {
+            splits.insert(0, 0);
+        }
+        if !c.geometric || splits.is_empty() {
+            out.push(Piece {
+                curve: ci,
+                vertices: verts,
+                closed: c.closed,
+            });
+            continue;
+        }
+        if let Some(&j) = splits.iter().find(|&&j| cut.singular[verts[j % nv]]) {
+            return Err(contradiction(
+                ids,
+                &[ci],
+                format!(
+                    "curve {} cannot be one parameter line: its line family changes at the singularity at vertex {} (no parameter line passes straight through a singularity)",
+                    c.id,
+                    verts[j % nv]
+                ),
+            ));
+        }
+        let cyc = |k: usize| verts[k % nv];
+        let bounds: Vec<usize> = if c.closed {
+            let mut b = splits.clone();
+            b.push(splits[0] + nv);
+            b
+        } else {
+            let mut b = vec![0];
+            b.extend(&splits);
+            b.push(nv - 1);
+            b
+        };
+        for w in bounds.windows(2) {
+            out.push(Piece {
+                curve: ci,
+                vertices: (w[0]..=w[1]).map(cyc).collect(),
+                closed: false,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// Whether the field runs along the curve in family n0: over windows of a few edges, the
+/// displacement across the line must stay below `across` times the displacement along it on
+/// all but [`ACROSS_FRACTION`] of the length; `Err(fraction across)` otherwise.
+fn check_along(walk: &Walk, rots: &Rots, n0: [f64; 2], across: f64) -> Result<(), f64> {
+    let comps: Vec<(f64, f64, f64)> = walk
+        .edges
+        .iter()
+        .map(|e| {
+            let n = apply(rots.get(e.chart_rot as i64), n0);
+            let t = [-n[1], n[0]];
+            let (dn, dt) = (n[0] * e.d[0] + n[1] * e.d[1], t[0] * e.d[0] + t[1] * e.d[1]);
+            (dn, dt, dn.hypot(dt))
+        })
+        .collect();
+    let total: f64 = comps.iter().map(|c| c.2).sum();
+    if total <= 0.0 {
+        return Ok(());
+    }
+    const HALF: usize = 2;
+    let mut bad = 0.0;
+    for i in 0..comps.len() {
+        let lo = i.saturating_sub(HALF);
+        let hi = (i + HALF + 1).min(comps.len());
+        let (sn, st) = comps[lo..hi]
+            .iter()
+            .fold((0.0, 0.0), |(a, b), c| (a + c.0, b + c.1));
+        if sn.abs() > across * st.abs() {
+            bad += comps[i].2;
+        }
+    }
+    let frac = bad / total;
+    if frac > ACROSS_FRACTION {
+        Err(frac)
+    } else {
+        Ok(())
+    }
+}

@@ -1,0 +1,255 @@
+//! Exact integer linear algebra for the combinatorial constraints C_c w = 0 (thesis eq. 4.8,
+//! alg. 7 steps 4–5): the integer solutions form a lattice, whose basis comes from a column
+//! Hermite reduction with a unimodular transform (exact, in i128); the rounding picks the
+//! lattice point nearest the measured values (least squares in the basis, rounded, then
+//! improved coordinate-wise).
+//!
+//! The thesis eliminates by Gauss and rounds the free variables; that leaves the dependent ones
+//! integer only when every pivot is ±1 (a constraint like 2c = w₁ + w₂ at a singularity of
+//! index 1/4 breaks it). The lattice basis keeps every solution integer.
+
+/// Integer solution of `rows · w = 0` (rows sparse over `n` variables) nearest to `target` in
+/// the metric `metric` (dense n × n, symmetric positive definite; the identity when `None`);
+/// `Err` when the arithmetic overflows (then the constraints are unusable as given).
+pub(crate) fn nearest_integer_solution(
+    rows: &[Vec<(usize, i128)>],
+    n: usize,
+    target: &[f64],
+    metric: Option<&[f64]>,
+) -> Result<Vec<i64>, String> {
+    debug_assert_eq!(target.len(), n);
+    let basis = kernel_basis(rows, n)?;
+    let k = basis.len();
+    if k == 0 {
+        return Ok(vec![0; n]);
+    }
+    let b: Vec<Vec<f64>> = basis
+        .iter()
+        .map(|col| col.iter().map(|&x| x as f64).collect())
+        .collect();
+    let identity: Vec<f64>;
+    let m = match metric {
+        Some(m) => m,
+        None => {
+            identity = (0..n * n)
+                .map(|i| (i % (n + 1) == 0) as u8 as f64)
+                .collect();
+            &identity
+        }
+    };
+    let apply_m =
+        |x: &[f64]| -> Vec<f64> { (0..n).map(|r| dot(&m[r * n..(r + 1) * n], x)).collect() };
+    // Least squares in the metric: (BᵀMB) z = BᵀM w*.
+    let mb: Vec<Vec<f64>> = b.iter().map(|col| apply_m(col)).collect();
+    let mut gram = vec![0.0; k * k];
+    let mut rhs = vec![0.0; k];
+    let mt = apply_m(target);
+    for i in 0..k {
+        for j in 0..k {
+            gram[i * k + j] = dot(&b[i], &mb[j]);
+        }
+        rhs[i] = dot(&b[i], &mt);
+    }
+    let z_real = solve_dense(&gram, &rhs, k).ok_or("the constraint lattice is degenerate")?;
+    let mut z: Vec<i64> = z_real.iter().map(|x| x.round() as i64).collect();
+    let dist = |z: &[i64]| -> f64 {
+        let d: Vec<f64> = (0..n)
+            .map(|r| (0..k).map(|c| b[c][r] * z[c] as f64).sum::<f64>() - target[r])
+            .collect();
+        dot(&d, &apply_m(&d))
+    };
+    let mut best = dist(&z);
+    for _ in 0..20 {
+        let mut improved = false;
+        for c in 0..k {
+            for step in [-1i64, 1] {
+                z[c] += step;
+                let d = dist(&z);
+                if d + 1e-12 < best {
+                    best = d;
+                    improved = true;
+                } else {
+                    z[c] -= step;
+                }
+            }
+        }
+        if !improved {
+            break;
+        }
+    }
+    let w: Vec<i64> = (0..n)
+        .map(|r| (0..k).map(|c| basis[c][r] as i64 * z[c]).sum())
+        .collect();
+    debug_assert!(
+        rows.iter()
+            .all(|row| row.iter().map(|&(j, a)| a * w[j] as i128).sum::<i128>() == 0)
+    );
+    Ok(w)
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Columns spanning the integer kernel {w ∈ Zⁿ : rows · w = 0}: A U = [H | 0] with U
+/// unimodular (column operations by extended gcd); the columns of U beyond the rank.
+fn kernel_basis(rows: &[Vec<(usize, i128)>], n: usize) -> Result<Vec<Vec<i128>>, String> {
+    let overflow = || "integer overflow in the constraint elimination".to_string();
+    let mut a: Vec<Vec<i128>> = rows
+        .iter()
+        .map(|row| {
+            let mut d = vec![0i128; n];
+            for &(j, v) in row {
+                d[j] += v;
+            }
+            d
+        })
+        .collect();
+    // U as columns.
+    let mut u: Vec<Vec<i128>> = (0..n)
+        .map(|j| (0..n).map(|i| (i == j) as i128).collect())
+        .collect();
+    let mut p = 0;
+    for i in 0..a.len() {
+        if p == n {
+            break;
+        }
+        for j in p + 1..n {
+            if a[i][j] == 0 {
+                continue;
+            }
+            // Columns p and j: (x, y) -> (g, 0) with [[s, -y/g], [t, x/g]] (determinant 1).
+            let (x, y) = (a[i][p], a[i][j]);
+            let (g, s, t) = ext_gcd(x, y);
+            let (xg, yg) = (x / g, y / g);
+            let combine = |cp: i128, cj: i128| -> Result<(i128, i128), String> {
+                let np = s
+                    .checked_mul(cp)
+                    .and_then(|l| t.checked_mul(cj).and_then(|r| l.checked_add(r)))
+                    .ok_or_else(overflow)?;
+                let nj = xg
+                    .checked_mul(cj)
+                    .and_then(|l| yg.checked_mul(cp).and_then(|r| l.checked_sub(r)))
+                    .ok_or_else(overflow)?;
+                Ok((np, nj))
+            };
+            for row in a.iter_mut() {
+                let (np, nj) = combine(row[p], row[j])?;
+                row[p] = np;
+                row[j] = nj;
+            }
+            let (left, right) = u.split_at_mut(j);
+            let (cp, cj) = (&mut left[p], &mut right[0]);
+            for r in 0..n {
+                let (np, nj) = combine(cp[r], cj[r])?;
+                cp[r] = np;
+                cj[r] = nj;
+            }
+        }
+        if a[i][p] != 0 {
+            p += 1;
+        }
+    }
+    Ok(u.split_off(p))
+}
+
+/// (g, s, t) with s·x + t·y = g = gcd(x, y) > 0 (for (x, y) ≠ (0, 0)).
+fn ext_gcd(x: i128, y: i128) -> (i128, i128, i128) {
+    let (mut r0, mut r1) = (x, y);
+    let (mut s0, mut s1) = (1i128, 0i128);
+    let (mut t0, mut t1) = (0i128, 1i128);
+    while r1 != 0 {
+        let q = r0.div_euclid(r1);
+        (r0, r1) = (r1, r0 - q * r1);
+        (s0, s1) = (s1, s0 - q * s1);
+        (t0, t1) = (t1, t0 - q * t1);
+    }
+    if r0 < 0 {
+        (-r0, -s0, -t0)
+    } else {
+        (r0, s0, t0)
+    }
+}
+
+/// Solves a small dense symmetric positive (semi)definite system by Gaussian elimination with
+/// partial pivoting; `None` if singular.
+fn solve_dense(a: &[f64], b: &[f64], k: usize) -> Option<Vec<f64>> {
+    let mut m: Vec<Vec<f64>> = (0..k)
+        .map(|i| {
+            let mut r = a[i * k..(i + 1) * k].to_vec();
+            r.push(b[i]);
+            r
+        })
+        .collect();
+    for c in 0..k {
+        let piv = (c..k).max_by(|&x, &y| m[x][c].abs().total_cmp(&m[y][c].abs()))?;
+        if m[piv][c].abs() < 1e-12 {
+            return None;
+        }
+        m.swap(c, piv);
+        for r in 0..k {
+            if r != c {
+                let f = m[r][c] / m[c][c];
+                if f != 0.0 {
+                    for j in c..=k {
+                        m[r][j] -= f * m[c][j];
+                    }
+                }
+            }
+        }
+    }
+    Some((0..k).map(|i| m[i][k] / m[i][i]).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn solutions_are_integer_and_nearest() {
+        // 2c = w0 + w1 (a line through a singularity of index 1/4) and c = w2.
+        let rows = vec![vec![(2, 2), (0, -1), (1, -1)], vec![(2, 1), (3, -1)]];
+        let w = nearest_integer_solution(&rows, 4, &[2.9, 1.2, 2.1, 1.8], None).unwrap();
+        assert_eq!(2 * w[2], w[0] + w[1]);
+        assert_eq!(w[2], w[3]);
+        // Nearest: w0 + w1 even; (3, 1, 2, 2) at distance² 0.01 + 0.04 + 0.01 + 0.04.
+        assert_eq!(w, vec![3, 1, 2, 2]);
+        // No constraint: plain rounding.
+        assert_eq!(
+            nearest_integer_solution(&[], 2, &[0.4, -1.6], None).unwrap(),
+            vec![0, -2]
+        );
+        // Only the trivial solution.
+        let rows = vec![vec![(0, 1)], vec![(1, 3), (0, 1)]];
+        assert_eq!(
+            nearest_integer_solution(&rows, 2, &[5.0, 5.0], None).unwrap(),
+            vec![0, 0]
+        );
+        // A dependent row changes nothing.
+        let rows = vec![vec![(0, 1), (1, -1)], vec![(0, 2), (1, -2)]];
+        let w = nearest_integer_solution(&rows, 2, &[3.2, 2.6], None).unwrap();
+        assert_eq!(w, vec![3, 3]);
+    }
+
+    #[test]
+    fn the_metric_decides_which_variable_gives_way() {
+        // w0 = w1, measured 0.2 and 0.9: the identity metric takes 1 (or 0; both at equal
+        // distance up to 0.1); a stiff w0 keeps w0's nearest integer, 0.
+        let rows = vec![vec![(0, 1), (1, -1)]];
+        let stiff = [100.0, 0.0, 0.0, 1.0];
+        let w = nearest_integer_solution(&rows, 2, &[0.2, 0.9], Some(&stiff)).unwrap();
+        assert_eq!(w, vec![0, 0]);
+        let soft = [1.0, 0.0, 0.0, 100.0];
+        let w = nearest_integer_solution(&rows, 2, &[0.2, 0.9], Some(&soft)).unwrap();
+        assert_eq!(w, vec![1, 1]);
+    }
+
+    #[test]
+    fn gcd_is_bezout() {
+        for (x, y) in [(4, 6), (-4, 6), (0, 5), (7, 0), (12, -18)] {
+            let (g, s, t) = ext_gcd(x, y);
+            assert!(g > 0);
+            assert_eq!(s * x + t * y, g);
+        }
+    }
+}

@@ -1,0 +1,463 @@
+//! Constraint curves (issue #14, thesis sec. 4.4, alg. 7): geometric curves lie on parameter
+//! lines of the lattice, checked face by face on the final map (not through the solver's own
+//! bookkeeping); a closed combinatorial loop makes a spiral close up; a combinatorial curve puts
+//! two singularities on one line; contradictions name the curve; curve edits replay
+//! bit-identically and broken curves are errors naming the curve and the position.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use quadcover::constraint::{CurveKind, shortest_edge_path};
+use quadcover::edit::{Base, Edit, EditError, EditState, Settings, Solved};
+use quadcover::mesh::{TriMesh, generate};
+use quadcover::param::{ConstraintCurve, Lattice, Parameterization, QuadCover, fit_matchings};
+use seams::contract_error;
+
+#[path = "support/seams.rs"]
+mod seams;
+
+const MESHES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/meshes");
+
+fn shared(name: &str) -> Option<std::path::PathBuf> {
+    let p = Path::new(MESHES).join(name);
+    if p.exists() {
+        Some(p)
+    } else {
+        eprintln!("skipping: {} not found", p.display());
+        None
+    }
+}
+
+fn base_for(path: &Path, settings: Settings) -> Base {
+    let loaded = quadcover::load::load_mesh(path).unwrap();
+    Base::new(
+        Arc::new(loaded.mesh),
+        loaded.report.original_vertex,
+        loaded.file_vertices,
+        settings,
+        &quadcover::edit::never,
+    )
+    .unwrap()
+}
+
+fn replay_solve(base: &Base, edits: &[Edit]) -> (EditState, Solved) {
+    let r = base.replay(edits, &quadcover::edit::never).unwrap();
+    assert!(r.skipped.is_empty(), "skipped: {:?}", r.skipped);
+    let state = r.last().clone();
+    let solved = base.solve(&state, &quadcover::edit::never).unwrap();
+    (state, solved)
+}
+
+/// Line normals and spacing of the lattice lines (Z²: u and v lines at integers; G6: the three
+/// families of the triangular lattice, spaced √3/2).
+fn families(n: usize) -> (Vec<[f64; 2]>, f64) {
+    if n == 6 {
+        let f = (0..3)
+            .map(|l| {
+                let a = std::f64::consts::FRAC_PI_2 + std::f64::consts::PI * l as f64 / 3.0;
+                [a.cos(), a.sin()]
+            })
+            .collect();
+        (f, 3f64.sqrt() / 2.0)
+    } else {
+        (vec![[1.0, 0.0], [0.0, 1.0]], 1.0)
+    }
+}
+
+/// Worst deviation of a mesh edge (a, b) from a lattice line, over the faces at the edge: in
+/// each, some family's coordinate must be equal at both ends and a multiple of the spacing.
+fn line_error(mesh: &TriMesh, uv: &[[f64; 2]], n: usize, a: usize, b: usize) -> f64 {
+    let (fam, s) = families(n);
+    let h = mesh
+        .outgoing(a)
+        .find(|&h| mesh.to(h) == b)
+        .or_else(|| mesh.outgoing(b).find(|&h| mesh.to(h) == a))
+        .expect("curve edge");
+    let mut worst: f64 = 0.0;
+    for h in [Some(h), mesh.twin(h)].into_iter().flatten() {
+        let (p, q) = (uv[h], uv[mesh.next(h)]);
+        let best = fam
+            .iter()
+            .map(|nl| {
+                let (x, y) = (
+                    (nl[0] * p[0] + nl[1] * p[1]) / s,
+                    (nl[0] * q[0] + nl[1] * q[1]) / s,
+                );
+                (x - y).abs() + (x - x.round()).abs()
+            })
+            .fold(f64::INFINITY, f64::min);
+        worst = worst.max(best);
+    }
+    worst
+}
+
+fn check_geometric(base: &Base, state: &EditState, solved: &Solved) -> usize {
+    let mesh = base.mesh();
+    let n = base.settings().symmetry as usize;
+    let p = &solved.param;
+    let lattice = if n == 6 { Lattice::G6 } else { Lattice::Z2 };
+    assert!(
+        contract_error(mesh, &p.uv, n, lattice) < 1e-6,
+        "not seamless"
+    );
+    let mut edges = 0;
+    for c in state.curves.values() {
+        if c.kind != CurveKind::Geometric {
+            continue;
+        }
+        for (a, b) in c.segments() {
+            let e = line_error(mesh, &p.uv, n, a, b);
+            assert!(e < 1e-6, "curve {} edge {a}-{b} is off a line by {e}", c.id);
+            edges += 1;
+        }
+    }
+    edges
+}
+
+#[test]
+fn fandisk_features_lie_on_parameter_lines() {
+    let Some(path) = shared("fandisk.obj") else {
+        return;
+    };
+    let base = base_for(&path, Settings::default());
+    let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
+    let sharp = quadcover::constraint::feature_edges(base.mesh(), 40.0).len();
+    let edges = check_geometric(&base, &state, &solved);
+    assert_eq!(edges, sharp, "every sharp edge is on a curve");
+    assert!(!solved.param.curves.is_empty());
+    assert!(solved.param.curves.iter().all(|c| c.max_offset < 1e-6));
+}
+
+#[test]
+fn boundaries_lie_on_parameter_lines() {
+    for (name, n) in [("camelhead.obj", 4), ("camelhead.obj", 6), ("bunny.obj", 4)] {
+        let Some(path) = shared(name) else {
+            return;
+        };
+        let settings = Settings {
+            symmetry: n,
+            ..Settings::default()
+        };
+        let base = base_for(&path, settings);
+        let (state, solved) = replay_solve(&base, &[Edit::AlignBoundary { on: true }]);
+        let boundary: usize = base.mesh().boundary_loops().iter().map(|l| l.len()).sum();
+        let edges = check_geometric(&base, &state, &solved);
+        assert_eq!(edges, boundary, "{name}: every boundary edge is on a curve");
+        eprintln!(
+            "{name} N = {n}: {edges} boundary edges on lines, {} flipped faces",
+            solved.param.flipped_faces
+        );
+    }
+}
+
+/// Composes the map's transitions over the faces left of the path (clockwise around each inner
+/// vertex) and returns the value at the last vertex in the first face's chart, with the value
+/// at the first vertex.
+fn along_left(mesh: &TriMesh, p: &Parameterization, path: &[usize]) -> ([f64; 2], [f64; 2]) {
+    let n = p.symmetry;
+    let rot = |r: u8, x: [f64; 2]| {
+        let a = std::f64::consts::TAU * r as f64 / n as f64;
+        let (c, s) = (a.cos(), a.sin());
+        [c * x[0] + s * x[1], -s * x[0] + c * x[1]]
+    };
+    let hs: Vec<usize> = path
+        .windows(2)
+        .map(|w| mesh.outgoing(w[0]).find(|&h| mesh.to(h) == w[1]).unwrap())
+        .collect();
+    // chart: first-face chart -> current chart is x ↦ R^k x + t; we track the inverse map
+    // current -> first as a list of steps instead (apply in reverse).
+    let mut steps: Vec<(u8, [f64; 2], bool)> = Vec::new();
+    for i in 0..hs.len() - 1 {
+        let mut g = mesh.next(hs[i]);
+        while g != hs[i + 1] {
+            let e = mesh.edge(g);
+            let t = p.transitions[e];
+            let forward = mesh.edge_halfedges(e).0 == g;
+            steps.push((t.rotation, t.translation, forward));
+            g = mesh.next(mesh.twin(g).unwrap());
+        }
+    }
+    let mut x = p.uv[mesh.next(*hs.last().unwrap())];
+    for &(r, t, forward) in steps.iter().rev() {
+        // uv_j = R^r uv_i + t (i the face of the edge's first halfedge).
+        x = if forward {
+            // We came from i to j: x is in j; back to i: R^{-r}(x − t).
+            rot(((n as u8) - r) % n as u8, [x[0] - t[0], x[1] - t[1]])
+        } else {
+            let y = rot(r, x);
+            [y[0] + t[0], y[1] + t[1]]
+        };
+    }
+    (p.uv[hs[0]], x)
+}
+
+#[test]
+fn a_combinatorial_curve_puts_two_singularities_on_one_line() {
+    let Some(path) = shared("spot.obj") else {
+        return;
+    };
+    let base = base_for(&path, Settings::default());
+    let mesh = base.mesh().clone();
+    let s0 = base.initial().clone();
+    let solved0 = base.solve(&s0, &quadcover::edit::never).unwrap();
+    // A pair of singularities a few cells apart not on one line.
+    let sing: Vec<usize> = s0.singularities.keys().copied().collect();
+    let mut chosen = None;
+    'outer: for &p in &sing {
+        for &q in &sing {
+            if p >= q {
+                continue;
+            }
+            let Some(path) = shortest_edge_path(&mesh, p, q) else {
+                continue;
+            };
+            if path.len() < 6
+                || path.len() > 30
+                || path[1..path.len() - 1]
+                    .iter()
+                    .any(|v| sing.contains(v) || mesh.is_boundary_vertex(*v))
+            {
+                continue;
+            }
+            let (a, b) = along_left(&mesh, &solved0.param, &path);
+            if (a[0] - b[0]).abs() > 0.25 && (a[1] - b[1]).abs() > 0.25 {
+                chosen = Some(path);
+                break 'outer;
+            }
+        }
+    }
+    let path = chosen.expect("a pair of singularities off one line");
+    let file: Vec<usize> = path.iter().map(|&v| base.file_vertex(v)).collect();
+    let (_, solved) = replay_solve(
+        &base,
+        &[Edit::AddCurve {
+            id: 7,
+            vertices: file,
+            closed: false,
+            kind: CurveKind::Combinatorial,
+        }],
+    );
+    let (a, b) = along_left(&mesh, &solved.param, &path);
+    let off = (a[0] - b[0]).abs().min((a[1] - b[1]).abs());
+    assert!(
+        off < 1e-6,
+        "singularities {a:?} and {b:?} are not on one line"
+    );
+}
+
+/// A cylinder with a helical field: the parameter lines spiral, unless a closed combinatorial
+/// loop around it makes the lines along it close up (fig. 4.21).
+#[test]
+fn a_closed_combinatorial_loop_closes_the_spiral() {
+    let mesh = generate::cylinder(1.0, 2.0, 48, 24);
+    let alpha: f64 = 25f64.to_radians();
+    let frames: Vec<[glam::DVec3; 2]> = (0..mesh.n_faces())
+        .map(|f| {
+            let c = mesh.face_centroid(f);
+            let et = glam::DVec3::new(-c.y, c.x, 0.0).normalize();
+            let ez = glam::DVec3::Z;
+            let n = mesh.face_normal(f);
+            let mut u = et * alpha.cos() + ez * alpha.sin();
+            u -= n * n.dot(u);
+            let u = u.normalize() * 3.0;
+            [u, n.cross(u)]
+        })
+        .collect();
+    let matchings = fit_matchings(&mesh, 4, &frames);
+    let qc = QuadCover::new(&mesh, 4, &matchings, Default::default()).unwrap();
+    // The ring of vertices at mid-height (vertex rows of nu = 48 around).
+    let ring: Vec<usize> = (0..48).map(|i| 12 * 48 + i).collect();
+    assert!(quadcover::constraint::check_path(&mesh, &ring, true).is_ok());
+    let free = qc.solve(&mesh, &frames).unwrap();
+    let curve = ConstraintCurve {
+        id: 3,
+        vertices: &ring,
+        closed: true,
+        geometric: false,
+    };
+    let closed = qc.solve_with_curves(&mesh, &frames, &[curve]).unwrap();
+    // Going once around: the value returned at the ring's first vertex.
+    let mut around = ring.clone();
+    around.push(ring[0]);
+    around.push(ring[1]);
+    let family = closed.curves[0].family as usize;
+    let shift = |p: &Parameterization| {
+        let (a, b) = along_left(&mesh, p, &around[..around.len() - 1]);
+        (a[family] - b[family]).abs()
+    };
+    assert!(
+        shift(&free) > 0.5,
+        "the free map spirals: shift {}",
+        shift(&free)
+    );
+    assert!(
+        shift(&closed) < 1e-6,
+        "the loop closes: shift {}",
+        shift(&closed)
+    );
+    assert!(closed.seam_max_error < 1e-6);
+}
+
+#[test]
+fn a_closed_combinatorial_loop_around_one_singularity_is_a_contradiction() {
+    let Some(path) = shared("spot.obj") else {
+        return;
+    };
+    let base = base_for(&path, Settings::default());
+    let mesh = base.mesh().clone();
+    let s0 = base.initial().clone();
+    // A singularity whose 1-ring holds no other.
+    let (&p, _) = s0
+        .singularities
+        .iter()
+        .find(|(v, _)| {
+            mesh.one_ring(**v)
+                .iter()
+                .all(|w| !s0.singularities.contains_key(w) && !mesh.is_boundary_vertex(*w))
+        })
+        .unwrap();
+    let ring: Vec<usize> = mesh
+        .one_ring(p)
+        .iter()
+        .map(|&v| base.file_vertex(v))
+        .collect();
+    let r = base.replay(
+        &[Edit::AddCurve {
+            id: 11,
+            vertices: ring,
+            closed: true,
+            kind: CurveKind::Combinatorial,
+        }],
+        &quadcover::edit::never,
+    );
+    let state = r.unwrap().last().clone();
+    match base.solve(&state, &quadcover::edit::never) {
+        Err(EditError::Contradiction { curves, message }) => {
+            assert_eq!(curves, vec![11]);
+            assert!(message.contains("curve 11"), "{message}");
+        }
+        other => panic!(
+            "expected a contradiction, got {:?}",
+            other.map(|s| s.param.flipped_faces)
+        ),
+    }
+}
+
+#[test]
+fn curve_edits_replay_bit_identically_and_undo_exactly() {
+    let Some(path) = shared("camelhead.obj") else {
+        return;
+    };
+    let base = base_for(&path, Settings::default());
+    let mesh = base.mesh().clone();
+    let a = 100;
+    let b = mesh.one_ring(a)[0];
+    let ring_a = mesh.one_ring(a);
+    let c = mesh
+        .one_ring(b)
+        .into_iter()
+        .find(|&x| x != a && !ring_a.contains(&x))
+        .unwrap();
+    let f = |v: usize| base.file_vertex(v);
+    let edits = vec![
+        Edit::AlignBoundary { on: true },
+        Edit::AddCurve {
+            id: 50,
+            vertices: vec![f(a), f(b), f(c)],
+            closed: false,
+            kind: CurveKind::Geometric,
+        },
+        Edit::SetCurveKind {
+            id: 50,
+            kind: CurveKind::Combinatorial,
+        },
+        Edit::RemoveCurve { id: 50 },
+        Edit::AlignBoundary { on: false },
+    ];
+    let r1 = base.replay(&edits, &quadcover::edit::never).unwrap();
+    let r2 = base.replay(&edits, &quadcover::edit::never).unwrap();
+    assert!(r1.skipped.is_empty());
+    assert_eq!(r1.states, r2.states);
+    // Undo to after the first edit: the replayed prefix is the cached state.
+    let prefix = base.replay(&edits[..1], &quadcover::edit::never).unwrap();
+    assert_eq!(prefix.last(), &r1.states[1]);
+    assert!(r1.states[1].curves.len() > 1);
+    assert_eq!(r1.states[2].curves[&50].kind, CurveKind::Geometric);
+    assert_eq!(r1.states[3].curves[&50].kind, CurveKind::Combinatorial);
+    assert!(!r1.states[4].curves.contains_key(&50));
+    // Boundary alignment off: back to the initial field exactly.
+    assert_eq!(r1.last().turns, base.initial().turns);
+    assert!(r1.last().curves.is_empty());
+    let s1 = base.solve(&r1.states[2], &quadcover::edit::never).unwrap();
+    let s2 = base.solve(&r2.states[2], &quadcover::edit::never).unwrap();
+    assert_eq!(s1.param.uv, s2.param.uv);
+    // A broken curve names itself and the positions.
+    let broken = Edit::AddCurve {
+        id: 4,
+        vertices: vec![f(a), f(c)],
+        closed: false,
+        kind: CurveKind::Geometric,
+    };
+    let why = base.check_edit(&broken).unwrap_err();
+    assert!(
+        why.contains("curve 4") && why.contains("positions 0 and 1"),
+        "{why}"
+    );
+    let r = base.replay(&[broken], &quadcover::edit::never).unwrap();
+    assert_eq!(r.skipped.len(), 1);
+}
+
+#[test]
+fn cli_features_and_broken_curve_files() {
+    let Some(path) = shared("fandisk.obj") else {
+        return;
+    };
+    let dir = std::env::temp_dir().join(format!("qc-constraints-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let exe = env!("CARGO_BIN_EXE_quadcover");
+    let report = dir.join("r.json");
+    let out = std::process::Command::new(exe)
+        .args(["solve", path.to_str().unwrap(), "--features", "40", "--out"])
+        .arg(dir.join("uv.obj"))
+        .arg("--report")
+        .arg(&report)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let curves = r["curves"].as_array().unwrap();
+    assert!(curves.len() >= 20);
+    assert!(
+        curves
+            .iter()
+            .all(|c| c["max_offset"].as_f64().unwrap() < 1e-6)
+    );
+    // A project whose curve skips an edge: exit code 2, the edit and the positions named.
+    let project = dir.join("p.json");
+    std::fs::write(
+        &project,
+        format!(
+            r#"{{"format": "quadcover-project", "version": 1, "mesh": {{"path": "{}"}},
+                "settings": {{}}, "edits": [{{"op": "add_curve", "id": 0, "vertices": [0, 5000], "closed": false, "kind": "geometric"}}]}}"#,
+            path.display()
+        ),
+    )
+    .unwrap();
+    let out = std::process::Command::new(exe)
+        .args(["solve", "--project", project.to_str().unwrap(), "--out"])
+        .arg(dir.join("uv2.obj"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("edit 1") && err.contains("curve 0") && err.contains("positions 0 and 1"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
