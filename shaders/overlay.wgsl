@@ -27,13 +27,15 @@ struct LineOut {
     @location(0) color: vec4<f32>,
     // signed distance across the line in pixels
     @location(1) across: f32,
+    // half the line's width in pixels
+    @location(2) half_width: f32,
 }
 
-@vertex
-fn vs_line(v: LineIn) -> LineOut {
+// A segment `width_px` wide, as two triangles (corners: end, side).
+fn line_vertex(v: LineIn, width_px: f32) -> LineOut {
     let ca = u.view_proj * vec4<f32>(pull_forward(v.a, 0.004), 1.0);
     let cb = u.view_proj * vec4<f32>(pull_forward(v.b, 0.004), 1.0);
-    let half_px = 0.5 * u.params2.w + 1.0;
+    let half_px = 0.5 * width_px + 1.0;
     let sa = ca.xy / max(ca.w, 1e-6) * u.viewport.xy * 0.5;
     let sb = cb.xy / max(cb.w, 1e-6) * u.viewport.xy * 0.5;
     var dir = sb - sa;
@@ -42,7 +44,6 @@ fn vs_line(v: LineIn) -> LineOut {
     }
     dir = normalize(dir);
     let nrm = vec2<f32>(-dir.y, dir.x);
-    // two triangles: corners (end, side)
     var ends = array<f32, 6>(0.0, 1.0, 0.0, 0.0, 1.0, 1.0);
     var sides = array<f32, 6>(-1.0, -1.0, 1.0, 1.0, -1.0, 1.0);
     let e = ends[v.index];
@@ -55,12 +56,25 @@ fn vs_line(v: LineIn) -> LineOut {
     out.clip = c;
     out.color = v.color;
     out.across = s * half_px;
+    out.half_width = 0.5 * width_px;
     return out;
+}
+
+// Lines of the overlay width (cut graph, previews, combinatorial curves).
+@vertex
+fn vs_line(v: LineIn) -> LineOut {
+    return line_vertex(v, u.params2.w);
+}
+
+// Lines twice as wide (geometric curves, highlighted curves).
+@vertex
+fn vs_thick_line(v: LineIn) -> LineOut {
+    return line_vertex(v, 2.0 * u.params2.w);
 }
 
 @fragment
 fn fs_line(in: LineOut) -> @location(0) vec4<f32> {
-    let cov = clamp(0.5 * u.params2.w + 0.5 - abs(in.across), 0.0, 1.0);
+    let cov = clamp(in.half_width + 0.5 - abs(in.across), 0.0, 1.0);
     if (cov <= 0.0) {
         discard;
     }

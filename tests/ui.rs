@@ -1093,3 +1093,600 @@ fn undo_and_redo_show_remembered_solves_at_once() {
     assert_eq!(uv_bits(&h), after);
     assert_eq!(singularities(&h), sing_after);
 }
+
+// ---- constraint curves (thesis sec. 4.4) ------------------------------------------------------
+
+use quadcover::app::tools::ToolKind;
+use quadcover::constraint::{CurveKind, CurveOrigin, check_path, feature_edges};
+use quadcover::edit::Curve;
+use std::collections::BTreeMap;
+
+/// The document's curves (mesh vertices), by id.
+fn curves(h: &Harness<'static, EditorApp>) -> BTreeMap<u32, Curve> {
+    h.state()
+        .document
+        .curves()
+        .cloned()
+        .expect("the document has a state")
+}
+
+/// The vertex a click near `near` picks, and a screen position next to it (inside the face
+/// hit there, a tenth of the way to the other corners) where a click picks it too: exactly at
+/// a vertex, a ray may slip between the faces around it.
+fn clickable_vertex(app: &EditorApp, near: egui::Pos2) -> (usize, egui::Pos2) {
+    let view = app.view();
+    let picker = app.current_picker().expect("the picking BVH is built");
+    let mesh = picker.mesh();
+    let hit = picker
+        .pick(&view, near)
+        .unwrap_or_else(|| panic!("no surface at {near:?}"));
+    let v = hit.vertex;
+    let corners = mesh.faces()[hit.face].map(|w| mesh.position(w as usize));
+    let centre = (corners[0] + corners[1] + corners[2]) / 3.0;
+    let p = mesh.position(v) * 0.8 + centre * 0.2;
+    let s = project(&view, p.as_vec3()).expect("in view");
+    assert_eq!(picker.pick(&view, s).map(|h| h.vertex), Some(v), "{near:?}");
+    (v, s)
+}
+
+/// A click: hover, press, release (a frame each).
+fn click(h: &mut Harness<'static, EditorApp>, pos: egui::Pos2) {
+    h.hover_at(pos);
+    h.step();
+    press(h, pos, true);
+    h.step();
+    press(h, pos, false);
+    h.step();
+}
+
+/// The committed `AddCurve` edit at the end of the applied edits, in mesh vertices (checked to
+/// map back to the file's) with its id, closed flag and kind.
+fn last_added(h: &Harness<'static, EditorApp>) -> (u32, Vec<usize>, bool, CurveKind) {
+    let base = h.state().document.edit_base.clone().unwrap();
+    match h.state().document.applied_edits().last() {
+        Some(Edit::AddCurve {
+            id,
+            vertices,
+            closed,
+            kind,
+        }) => {
+            let mesh: Vec<usize> = vertices
+                .iter()
+                .map(|&f| base.mesh_vertex(f).expect("a file vertex of the mesh"))
+                .collect();
+            assert_eq!(
+                mesh.iter()
+                    .map(|&v| base.file_vertex(v))
+                    .collect::<Vec<_>>(),
+                *vertices
+            );
+            (*id, mesh, *closed, *kind)
+        }
+        e => panic!("the last edit is not a curve: {e:?}"),
+    }
+}
+
+/// Clicks draw an open curve (Enter finishes it) and a closed one (clicking the first vertex
+/// closes it), with a live preview; Enter on a single vertex is refused; the selected curve
+/// switches to combinatorial, undo and redo restore the states exactly; a click selects
+/// a curve and Delete removes it; a stroke and a double click draw curves too; the project
+/// saves and reopens with the same curves.
+#[test]
+fn curves_are_drawn_retyped_deleted_undone_and_saved() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mesh_path = dir.path().join("spot.obj");
+    std::fs::copy(shared_mesh("spot.obj"), &mesh_path).expect("copy the mesh");
+    let mut h = harness_with(&dir.path().join("recent.txt"), Some(mesh_path), true);
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    h.get_by_label("Draw curves").click();
+    h.run_steps(2);
+    assert_eq!(h.state().tool_kind, ToolKind::DrawCurve);
+    let base = h.state().document.edit_base.clone().unwrap();
+    let mesh = base.mesh().clone();
+    let c = h.state().view().rect.center();
+    let at = |h: &Harness<'static, EditorApp>, dx: f32, dy: f32| {
+        clickable_vertex(h.state(), c + egui::vec2(dx, dy))
+    };
+    let camera = h.state().camera;
+
+    // an open curve: three clicks, a preview towards the cursor, Enter
+    let (a, pa) = at(&h, -110.0, -100.0);
+    let (b, pb) = at(&h, -30.0, -120.0);
+    let (e, pe) = at(&h, 50.0, -100.0);
+    click(&mut h, pa);
+    click(&mut h, pb);
+    click(&mut h, pe);
+    let drawing = h
+        .state()
+        .tool
+        .overlay()
+        .expect("the curve in progress is shown");
+    assert!(!drawing.thick_lines.is_empty());
+    h.hover_at(c + egui::vec2(90.0, -40.0));
+    h.run_steps(2);
+    let preview = h.state().tool.overlay().expect("a preview");
+    assert!(
+        !preview.lines.is_empty(),
+        "no preview path to the hovered vertex"
+    );
+    h.get_by_label_contains("Drawing: ");
+    assert!(h.state().document.edits.is_empty(), "committed too early");
+    h.key_press(egui::Key::Enter);
+    h.step();
+    let (id0, v0, closed, kind) = last_added(&h);
+    assert_eq!((id0, closed, kind), (0, false, CurveKind::Geometric));
+    assert_eq!((v0[0], *v0.last().unwrap()), (a, e));
+    assert!(v0.contains(&b));
+    check_path(&mesh, &v0, false).expect("an edge path");
+    assert_eq!(curves(&h)[&0].vertices, v0);
+    assert_eq!(h.state().camera, camera, "clicks orbited the camera");
+    settle(&mut h);
+
+    // a closed curve: three clicks, then the first vertex again
+    let far = |h: &Harness<'static, EditorApp>, p: egui::Pos2| {
+        let cs = curves(h);
+        h.state()
+            .current_picker()
+            .unwrap()
+            .pick_curve(&h.state().view(), p, cs.values(), 12.0)
+            .is_none()
+    };
+    let (d, pd) = at(&h, -70.0, 50.0);
+    let (f, pf) = at(&h, 30.0, 60.0);
+    let (g, pg) = at(&h, -20.0, 130.0);
+    assert!(
+        far(&h, pd),
+        "the closed curve's first click would select curve 0"
+    );
+    click(&mut h, pd);
+    click(&mut h, pf);
+    click(&mut h, pg);
+    click(&mut h, pd);
+    let (id1, v1, closed, _) = last_added(&h);
+    assert_eq!((id1, closed), (1, true));
+    assert_eq!(v1[0], d);
+    assert!(v1.contains(&f) && v1.contains(&g));
+    check_path(&mesh, &v1, true).expect("a closed edge path");
+    assert_eq!(h.state().tool.selected_curve(), Some(1));
+    h.step(); // the side panel is drawn before the viewport: it shows the new curve next frame
+    h.get_by_label(&format!(
+        "Curve 1: geometric, drawn, {} vertices, closed",
+        v1.len()
+    ));
+    settle(&mut h);
+    save_render(&mut h, "ui_curves_drawn.png");
+
+    // switch its kind; undo and redo give the states (and the maps) exactly
+    let state_before = h.state().document.current_state().cloned().unwrap();
+    let uv_before = uvs(&h);
+    h.get_by_label("Make combinatorial").click();
+    h.step();
+    assert_eq!(
+        h.state().document.applied_edits().last(),
+        Some(&Edit::SetCurveKind {
+            id: 1,
+            kind: CurveKind::Combinatorial
+        })
+    );
+    settle(&mut h);
+    let state_after = h.state().document.current_state().cloned().unwrap();
+    assert_eq!(state_after.curves[&1].kind, CurveKind::Combinatorial);
+    let uv_after = uvs(&h);
+    h.get_by_label_contains("Curve 1: combinatorial");
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    settle(&mut h);
+    assert_eq!(h.state().document.cursor(), 2);
+    assert_eq!(
+        h.state().document.current_state(),
+        Some(&state_before),
+        "undo"
+    );
+    assert!(
+        uvs(&h) == uv_before,
+        "undo gives the earlier map bit for bit"
+    );
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Y);
+    h.step();
+    settle(&mut h);
+    assert_eq!(
+        h.state().document.current_state(),
+        Some(&state_after),
+        "redo"
+    );
+    assert!(uvs(&h) == uv_after, "redo gives the later map bit for bit");
+
+    // a click on curve 0 selects it; Delete removes it
+    let view = h.state().view();
+    let picker = h.state().current_picker().unwrap();
+    let cs = curves(&h);
+    let on_curve = cs[&0]
+        .segments()
+        .into_iter()
+        .filter_map(|(p, q)| {
+            let sp = project(&view, mesh.position(p).as_vec3())?;
+            let sq = project(&view, mesh.position(q).as_vec3())?;
+            Some(sp + (sq - sp) * 0.5)
+        })
+        .find(|&m| picker.pick_curve(&view, m, cs.values(), 6.0) == Some(0))
+        .expect("a visible point on curve 0");
+    click(&mut h, on_curve);
+    assert_eq!(h.state().tool.selected_curve(), Some(0));
+    assert_eq!(h.state().document.edits.len(), 3, "a selecting click drew");
+    h.step();
+    h.get_by_label(&format!(
+        "Curve 0: geometric, drawn, {} vertices, open",
+        v0.len()
+    ));
+    h.key_press(egui::Key::Delete);
+    h.step();
+    assert_eq!(
+        h.state().document.applied_edits().last(),
+        Some(&Edit::RemoveCurve { id: 0 })
+    );
+    assert_eq!(curves(&h).keys().copied().collect::<Vec<_>>(), vec![1]);
+    assert_eq!(h.state().tool.selected_curve(), None);
+
+    // one vertex is no curve: Enter is refused; Esc aborts it
+    let (_, ps) = at(&h, -120.0, 0.0);
+    click(&mut h, ps);
+    h.step();
+    h.get_by_label_contains("Drawing: 1 vertices");
+    h.key_press(egui::Key::Enter);
+    h.step();
+    let notice = h.state().notice.clone().expect("the refusal is shown");
+    assert!(notice.contains("at least two vertices"), "{notice}");
+    assert_eq!(h.state().document.edits.len(), 4);
+    h.key_press(egui::Key::Escape);
+    h.step();
+    assert!(
+        h.state()
+            .tool
+            .overlay()
+            .is_none_or(|o| o.thick_lines.is_empty())
+    );
+    h.key_press(egui::Key::Enter);
+    h.step();
+    assert_eq!(
+        h.state().document.edits.len(),
+        4,
+        "an aborted curve was committed"
+    );
+
+    // a stroke: press on the surface, drag, release
+    let (s0, ps0) = at(&h, -120.0, 0.0);
+    let (s1, ps1) = at(&h, 60.0, 20.0);
+    press(&mut h, ps0, true);
+    h.step();
+    for i in 1..=8 {
+        h.hover_at(ps0 + (ps1 - ps0) * (i as f32 / 8.0));
+        h.step();
+    }
+    assert!(h.state().tool.active());
+    press(&mut h, ps1, false);
+    h.step();
+    assert_eq!(h.state().camera, camera, "the stroke orbited the camera");
+    let (id2, v2, closed, _) = last_added(&h);
+    assert_eq!((id2, closed), (2, false));
+    assert_eq!((v2[0], *v2.last().unwrap()), (s0, s1));
+    check_path(&mesh, &v2, false).expect("a stroke snapped to an edge path");
+
+    // a double click finishes an open curve (two clicks in one frame)
+    let (t0, pt0) = at(&h, -100.0, 200.0);
+    let (t1, pt1) = at(&h, 0.0, 220.0);
+    assert!(far(&h, pt0));
+    click(&mut h, pt0);
+    h.hover_at(pt1);
+    h.step();
+    let button = |pressed| egui::Event::PointerButton {
+        pos: pt1,
+        button: egui::PointerButton::Primary,
+        pressed,
+        modifiers: egui::Modifiers::NONE,
+    };
+    h.input_mut()
+        .events
+        .extend([button(true), button(false), button(true), button(false)]);
+    h.run_steps(2);
+    let (id3, v3, closed, _) = last_added(&h);
+    assert_eq!((id3, closed), (3, false));
+    assert_eq!((v3[0], *v3.last().unwrap()), (t0, t1));
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    assert_eq!(
+        h.state().view().rect,
+        view.rect,
+        "the side panel changed width"
+    );
+
+    // save, reopen: the same edits and curves
+    let saved_curves = curves(&h);
+    assert_eq!(
+        saved_curves.keys().copied().collect::<Vec<_>>(),
+        vec![1, 2, 3]
+    );
+    let project_path = dir.path().join("curves.json");
+    assert!(h.state_mut().save_project_to(&project_path));
+    let saved = Project::load(&project_path).expect("the project reads back");
+    assert_eq!(saved.edits, h.state().document.applied_edits());
+    let mut h2 = harness_with(&dir.path().join("recent.txt"), Some(project_path), false);
+    settle(&mut h2);
+    assert!(h2.state().error.is_none(), "{:?}", h2.state().error);
+    assert_eq!(
+        h2.state().document.applied_edits(),
+        h.state().document.applied_edits()
+    );
+    assert_eq!(curves(&h2), saved_curves);
+    h2.get_by_label("3 curves: 3 drawn, 0 sharp features, 0 boundary");
+}
+
+/// The feature angle previews the sharp edges before anything is applied; *Detect features*
+/// turns them into feature curves (undo removes them); *Align to boundary* adds the boundary
+/// loops as curves and removes them again.
+#[test]
+fn sharp_features_are_previewed_and_detected_and_boundaries_aligned() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness_with(
+        &dir.path().join("recent.txt"),
+        Some(shared_mesh("fandisk.obj")),
+        true,
+    );
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    let mesh = h.state().document.mesh.clone().unwrap();
+    assert_eq!(h.state().curves.feature_angle, 35.0);
+    let expected = feature_edges(&mesh, 35.0);
+    assert!(expected.len() > 100, "{} feature edges", expected.len());
+    assert!(!h.state().curves.feature_preview);
+    h.get_by_label("Preview edges").click();
+    h.run_steps(2);
+    h.get_by_label(&format!("{} edges", expected.len()));
+    save_render(&mut h, "ui_feature_preview.png");
+    // a larger angle previews fewer edges
+    h.state_mut().curves.feature_angle = 60.0;
+    h.run_steps(2);
+    let fewer = feature_edges(&mesh, 60.0).len();
+    assert!(fewer < expected.len());
+    h.get_by_label(&format!("{fewer} edges"));
+    h.state_mut().curves.feature_angle = 35.0;
+    h.run_steps(2);
+    assert!(
+        h.state().document.edits.is_empty(),
+        "the preview is no edit"
+    );
+
+    h.get_by_label("Detect features").click();
+    h.step();
+    assert_eq!(
+        h.state().document.applied_edits(),
+        &[Edit::DetectFeatures { angle_deg: 35.0 }]
+    );
+    let found = curves(&h);
+    assert!(!found.is_empty(), "no feature curves");
+    let feature_set: std::collections::HashSet<usize> = expected.iter().copied().collect();
+    let mut covered = std::collections::HashSet::new();
+    for c in found.values() {
+        assert_eq!(c.origin, CurveOrigin::Feature);
+        assert_eq!(c.kind, CurveKind::Geometric);
+        check_path(&mesh, &c.vertices, c.closed).expect("an edge path");
+        for (p, q) in c.segments() {
+            let e = mesh.edge(quadcover::constraint::halfedge_between(&mesh, p, q).unwrap());
+            assert!(
+                feature_set.contains(&e),
+                "curve {} leaves the features",
+                c.id
+            );
+            covered.insert(e);
+        }
+    }
+    assert_eq!(covered, feature_set, "every feature edge is on a curve");
+    h.step();
+    h.get_by_label(&format!(
+        "{} curves: 0 drawn, {} sharp features, 0 boundary",
+        found.len(),
+        found.len()
+    ));
+    assert!(
+        !h.state().curves.feature_preview,
+        "the preview stays after applying"
+    );
+    settle(&mut h);
+    save_render(&mut h, "ui_features_detected.png");
+    h.state_mut().undo();
+    settle(&mut h);
+    assert!(curves(&h).is_empty());
+    h.state_mut().redo();
+    settle(&mut h);
+    assert_eq!(curves(&h), found);
+
+    // a mesh with a boundary loop
+    let ctx = h.ctx.clone();
+    h.state_mut()
+        .request(PendingAction::Open(shared_mesh("camelhead.obj")));
+    h.run_steps(2);
+    if h.state().confirm.is_some() {
+        h.get_by_label("Discard").click();
+        h.run_steps(2);
+    }
+    drop(ctx);
+    settle(&mut h);
+    h.get_by_label("File: camelhead.obj");
+    assert!(curves(&h).is_empty());
+    h.get_by_label("Align to boundary").click();
+    h.step();
+    assert_eq!(
+        h.state().document.applied_edits(),
+        &[Edit::AlignBoundary { on: true }]
+    );
+    let boundary = curves(&h);
+    assert!(!boundary.is_empty(), "no boundary curves");
+    let mesh = h.state().document.mesh.clone().unwrap();
+    let mut edges = 0;
+    for c in boundary.values() {
+        assert_eq!(c.origin, CurveOrigin::Boundary);
+        check_path(&mesh, &c.vertices, c.closed).expect("an edge path");
+        assert!(c.vertices.iter().all(|&v| mesh.is_boundary_vertex(v)));
+        edges += c.segments().len();
+    }
+    let boundary_edges = (0..mesh.n_edges())
+        .filter(|&e| mesh.edge_halfedges(e).1.is_none())
+        .count();
+    assert_eq!(edges, boundary_edges, "the loop is covered once");
+    settle(&mut h);
+    save_render(&mut h, "ui_boundary_aligned.png");
+    h.get_by_label("Align to boundary").click();
+    h.step();
+    assert_eq!(
+        h.state().document.applied_edits().last(),
+        Some(&Edit::AlignBoundary { on: false })
+    );
+    assert!(curves(&h).is_empty());
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+}
+
+/// A closed geometric curve around a single singularity cannot be a parameter line (the field
+/// turns by its index on the way round): the solve reports a contradiction, which is drawn red
+/// and shown as the notice while the last good result stays; removing the curve solves again.
+#[test]
+fn contradictory_curves_are_shown_and_the_last_good_result_stays() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness_with(
+        &dir.path().join("recent.txt"),
+        Some(shared_mesh("spot.obj")),
+        true,
+    );
+    settle(&mut h);
+    let uv_before = uvs(&h);
+    let edit = {
+        let (base, state) = h.state().document.editable().unwrap();
+        let mesh = base.mesh();
+        let (&p, _) = state
+            .singularities
+            .iter()
+            .find(|(v, _)| {
+                mesh.one_ring(**v)
+                    .iter()
+                    .all(|w| !state.singularities.contains_key(w))
+            })
+            .expect("an isolated singularity");
+        let ring = mesh.one_ring(p);
+        check_path(mesh, &ring, true).expect("the link is a closed path");
+        Edit::AddCurve {
+            id: 0,
+            vertices: ring.iter().map(|&v| base.file_vertex(v)).collect(),
+            closed: true,
+            kind: CurveKind::Combinatorial,
+        }
+    };
+    h.state_mut().commit_edit(edit);
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    let error = h
+        .state()
+        .document
+        .solve_error
+        .clone()
+        .expect("the solve reports the contradiction");
+    assert_eq!(h.state().document.contradiction, vec![0]);
+    assert_eq!(h.state().notice.as_deref(), Some(error.as_str()));
+    assert!(uvs(&h) == uv_before, "the last good map stays");
+    h.get_by_label_contains("Contradictory curves (red)");
+    save_render(&mut h, "ui_contradiction.png");
+    h.state_mut().commit_edit(Edit::RemoveCurve { id: 0 });
+    settle(&mut h);
+    assert!(h.state().document.solve_error.is_none());
+    assert!(h.state().document.contradiction.is_empty());
+}
+
+/// The editor's side of a contradiction, whatever the core finds: a solve outcome that reports
+/// one (injected as the solve job's result) is a failed solve; the curves it names are drawn
+/// red, its message is the notice, the last good result stays; undo shows the remembered solve
+/// and the contradiction is gone.
+#[test]
+fn a_contradiction_outcome_is_a_failed_solve_with_red_curves() {
+    use quadcover::app::curves::{CONTRADICTION_COLOR, GEOMETRIC_COLOR};
+    use quadcover::app::document::SolveOutcome;
+    use quadcover::app::jobs::{Job, JobOutput};
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness_with(
+        &dir.path().join("recent.txt"),
+        Some(shared_mesh("spot.obj")),
+        true,
+    );
+    settle(&mut h);
+    let edit = {
+        let (base, _) = h.state().document.editable().unwrap();
+        let path = quadcover::constraint::shortest_edge_path(base.mesh(), 0, 40).unwrap();
+        Edit::AddCurve {
+            id: 0,
+            vertices: path.iter().map(|&v| base.file_vertex(v)).collect(),
+            closed: false,
+            kind: CurveKind::Geometric,
+        }
+    };
+    h.state_mut().commit_edit(edit);
+    settle(&mut h);
+    let uv = uvs(&h);
+    let solve_info = h.state().document.solve_info.clone().unwrap().revision;
+    let overlay = h.state_mut().curves_overlay().expect("the curve is drawn");
+    assert!(
+        overlay
+            .thick_lines
+            .iter()
+            .all(|l| l.color == GEOMETRIC_COLOR)
+    );
+
+    // the solve job of the current revision reports a contradiction of curve 0
+    let message = "curve 0 cannot be a parameter line".to_string();
+    let doc = &h.state().document;
+    let outcome = SolveOutcome {
+        revision: doc.edit_revision(),
+        base: None,
+        first: doc.cursor(),
+        states: Vec::new(),
+        skipped: Vec::new(),
+        solved: Err(message.clone()),
+        contradiction: vec![0],
+    };
+    let job = Job::spawn("Re-solving", None, move |_| {
+        Ok(JobOutput::Solved(Box::new(outcome)))
+    })
+    .for_generation(doc.generation())
+    .for_revision(doc.edit_revision());
+    h.state_mut().jobs.push(job);
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    assert_eq!(
+        h.state().document.solve_error.as_deref(),
+        Some(message.as_str())
+    );
+    assert_eq!(h.state().document.contradiction, vec![0]);
+    assert_eq!(h.state().notice.as_deref(), Some(message.as_str()));
+    assert!(uvs(&h) == uv, "the last good map stays");
+    assert_eq!(
+        h.state().document.solve_info.clone().unwrap().revision,
+        solve_info
+    );
+    let red = h.state_mut().curves_overlay().unwrap();
+    assert!(!red.thick_lines.is_empty());
+    assert!(
+        red.thick_lines
+            .iter()
+            .all(|l| l.color == CONTRADICTION_COLOR)
+    );
+    h.get_by_label_contains("Contradictory curves (red): curve 0 cannot");
+    h.get_by_label_contains("The last solve failed (the previous result is shown)");
+    save_render(&mut h, "ui_contradiction_injected.png");
+
+    // undo: the remembered solve of the state before, no contradiction
+    h.state_mut().undo();
+    settle(&mut h);
+    assert!(h.state().document.contradiction.is_empty());
+    assert!(h.state().document.solve_error.is_none());
+    assert!(
+        h.state_mut().curves_overlay().is_none(),
+        "no curves left to draw"
+    );
+}

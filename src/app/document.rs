@@ -10,6 +10,7 @@
 //! [`Document::edit_revision`], and a [`SolveRequest`] tagged with it carries the work to a
 //! background job ([`SolveRequest::run`]); outcomes for an older revision are dropped.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -18,7 +19,9 @@ use glam::DVec3;
 use super::scene::{LineSegment, SceneData, singularity_color};
 use super::settings::DisplaySettings;
 use crate::edit::project::{relative_mesh_path, sha256_hex};
-use crate::edit::{Base, Edit, EditError, EditState, MeshRef, Project, Settings, Skipped, Solved};
+use crate::edit::{
+    Base, Curve, Edit, EditError, EditState, MeshRef, Project, Settings, Skipped, Solved,
+};
 use crate::mesh::{Topology, TriMesh};
 
 /// The default mesh: Spot by Keenan Crane (CC0).
@@ -245,6 +248,8 @@ pub struct SolveOutcome {
     pub skipped: Vec<Skipped>,
     /// The solve of the last state, or why it failed.
     pub solved: Result<Solved, String>,
+    /// When the solve failed because the constraint curves contradict: their ids.
+    pub contradiction: Vec<u32>,
 }
 
 fn edit_error(e: EditError) -> String {
@@ -295,9 +300,12 @@ impl SolveRequest {
             .map_err(edit_error)?;
         let (states, skipped) = (replay.states, replay.skipped);
         stage("field re-solve and QuadCover");
-        let solved = base
-            .solve(states.last().expect("a state"), cancel)
-            .map_err(edit_error);
+        let solved = base.solve(states.last().expect("a state"), cancel);
+        let contradiction = match &solved {
+            Err(EditError::Contradiction { curves, .. }) => curves.clone(),
+            _ => Vec::new(),
+        };
+        let solved = solved.map_err(edit_error);
         if cancel() {
             return Err(edit_error(EditError::Cancelled));
         }
@@ -308,6 +316,7 @@ impl SolveRequest {
             states,
             skipped,
             solved,
+            contradiction,
         })
     }
 }
@@ -377,6 +386,8 @@ pub struct Document {
     pub solve_info: Option<SolveInfo>,
     /// Why the last solve failed (the last good result stays on screen).
     pub solve_error: Option<String>,
+    /// The curves the last solve found contradictory (drawn red); empty after a good solve.
+    pub contradiction: Vec<u32>,
     /// The last few solves with their base and state, newest last: undo and redo back to one
     /// of them show it at once instead of solving again (a solve is a pure function of the
     /// base and the state, so this is the same result).
@@ -422,6 +433,7 @@ impl Default for Document {
             shown_state: None,
             solve_info: None,
             solve_error: None,
+            contradiction: Vec::new(),
             solve_cache: Vec::new(),
             project_path: None,
             saved: (Vec::new(), Settings::default()),
@@ -463,6 +475,7 @@ impl Document {
         self.shown_state = None;
         self.solve_info = None;
         self.solve_error = None;
+        self.contradiction.clear();
         self.project_path = None;
         self.saved = (Vec::new(), self.settings.clone());
         self.edit_revision += 1;
@@ -518,6 +531,14 @@ impl Document {
             return None;
         }
         self.states.get(self.cursor)
+    }
+
+    /// The constraint curves to show (mesh vertices, by id): the current state's, or while it
+    /// is not known (a rebuild for new settings runs) the shown solve's.
+    pub fn curves(&self) -> Option<&BTreeMap<u32, Curve>> {
+        self.current_state()
+            .or(self.shown_state.as_ref())
+            .map(|s| &s.curves)
     }
 
     /// The base and the current state, when edits can be applied on the UI thread.
@@ -637,13 +658,17 @@ impl Document {
         match outcome.solved {
             Ok(solved) => {
                 self.solve_error = None;
+                self.contradiction.clear();
                 let state = self.states.get(self.cursor).cloned();
                 if let (Some(base), Some(state)) = (&self.edit_base, &state) {
                     self.remember_solve(base.clone(), state.clone(), &solved);
                 }
                 self.set_solved(solved, state);
             }
-            Err(e) => self.solve_error = Some(e),
+            Err(e) => {
+                self.solve_error = Some(e);
+                self.contradiction = outcome.contradiction;
+            }
         }
         true
     }
@@ -678,6 +703,7 @@ impl Document {
             return false;
         };
         self.solve_error = None;
+        self.contradiction.clear();
         self.set_solved(solved, Some(state));
         true
     }

@@ -14,7 +14,7 @@ use super::document::{
 use super::jobs::{Job, JobOutput};
 use super::picking::Picker;
 use super::settings::{DisplayMode, Pattern};
-use super::tools::{MoveSingularityTool, Tool};
+use super::tools::{Tool, ToolKind};
 use super::viewport::ViewportResources;
 use crate::edit::Settings;
 
@@ -70,8 +70,13 @@ pub struct EditorApp {
     pub(super) solve_pending: bool,
     /// The picking BVH of the current mesh (built in the background after each load).
     pub picker: Option<Arc<Picker>>,
-    /// The active viewport tool.
+    /// The active viewport tool, and which it is ([`EditorApp::set_tool`]).
     pub tool: Box<dyn Tool>,
+    pub tool_kind: ToolKind,
+    /// The other tools, keeping their settings while another is active.
+    pub(super) parked_tools: Vec<(ToolKind, Box<dyn Tool>)>,
+    /// The curve overlays and the feature panel ([`super::curves`]).
+    pub curves: super::curves::CurvesUi,
     /// An action waiting for the answer to "save the unsaved changes?".
     pub confirm: Option<PendingAction>,
     /// The user chose to close without saving.
@@ -120,7 +125,10 @@ impl EditorApp {
             auto_solve: options.auto_solve,
             solve_pending: false,
             picker: None,
-            tool: Box::new(MoveSingularityTool::new()),
+            tool: ToolKind::MoveSingularity.make(),
+            tool_kind: ToolKind::MoveSingularity,
+            parked_tools: Vec::new(),
+            curves: Default::default(),
             confirm: None,
             allow_close: false,
             last_title: String::new(),
@@ -238,6 +246,9 @@ impl EditorApp {
                             self.status = format!("{} done in {secs:.2} s", job.name);
                         } else {
                             self.status = format!("{} failed", job.name);
+                            if !self.document.contradiction.is_empty() {
+                                self.notice = self.document.solve_error.clone();
+                            }
                         }
                         if self.document.skipped.len() > skipped_before {
                             self.notice = Some(format!(
@@ -293,6 +304,10 @@ impl EditorApp {
 
     fn after_load(&mut self) {
         self.tool.reset();
+        self.tool.clear_selection();
+        for (_, t) in &mut self.parked_tools {
+            t.clear_selection();
+        }
         self.notice = None;
         self.fit_pending = true;
         self.spawn_picker();

@@ -29,6 +29,7 @@ impl EditorApp {
                 view,
                 document: &self.document,
                 picker: None,
+                modifiers: egui::Modifiers::NONE,
             };
             self.tool.event(&cx, ToolEvent::Cancel);
         }

@@ -7,13 +7,14 @@
 //! - [`jobs::Job`]: background work on its own thread, results via a channel.
 //! - [`picking`]: camera rays and BVH ray casts, for every tool; [`tools`]: the viewport's
 //!   interaction modes (one file per tool), which hand one edit to the document per gesture.
-//! - [`editor`] wires the menus ([`menus`]), the side panel ([`panels`]), the viewport
-//!   ([`view_ui`]), the file actions ([`files`]), the edit pipeline ([`edits`]) and the
-//!   individual stages ([`stages`]).
+//! - [`editor`] wires the menus ([`menus`]), the side panel ([`panels`], with the tools and
+//!   curves sections of [`curves`]), the viewport ([`view_ui`]), the file actions ([`files`]),
+//!   the edit pipeline ([`edits`]) and the individual stages ([`stages`]).
 //! - [`render::Renderer`]: the wgpu renderer, shared by the viewport
 //!   ([`viewport`]) and offscreen rendering ([`render::Offscreen`]).
 
 pub mod camera;
+pub mod curves;
 pub mod document;
 pub mod editor;
 mod edits;

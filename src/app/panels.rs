@@ -1,4 +1,5 @@
-//! The side panel: mesh, display, solve settings, edits (Relax, history, skipped edits), jobs.
+//! The side panel: mesh, display, solve settings, tools and curves ([`super::curves`]), edits
+//! (Relax, history, skipped edits), jobs.
 
 use super::editor::{EditorApp, plain};
 use super::scene::singularity_color;
@@ -116,6 +117,14 @@ impl EditorApp {
             self.solve_section(ui);
 
             ui.separator();
+            ui.heading("Tools");
+            self.tools_section(ui);
+
+            ui.separator();
+            ui.heading("Curves");
+            self.curves_section(ui);
+
+            ui.separator();
             ui.heading("Edits");
             self.edits_section(ui);
 
@@ -128,7 +137,8 @@ impl EditorApp {
                 ui.label("A re-solve for the newest edit waits for the cancelled one to stop");
             }
             for job in &self.jobs {
-                ui.horizontal(|ui| {
+                // wrapped: a long job name must not widen the panel (the viewport would move)
+                ui.horizontal_wrapped(|ui| {
                     ui.spinner();
                     let stage = job.progress.stage();
                     let cancelled = if job.cancelled() { ", cancelled" } else { "" };
@@ -360,9 +370,7 @@ impl EditorApp {
                 ""
             }
         ));
-        if can_edit {
-            ui.weak("Drag a singularity glyph to move or merge it (Esc cancels)");
-        } else if self.document.mesh.is_some() {
+        if !can_edit && self.document.mesh.is_some() {
             ui.weak("Editing starts when the solve has finished");
         }
         if let Some(n) = &self.notice {

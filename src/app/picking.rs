@@ -7,6 +7,8 @@
 //!   and the nearest corner vertex ([`Hit`]).
 //! - [`Picker::pick_vertex_glyph`] finds the glyph (e.g. a singularity) nearest the cursor in
 //!   screen space, within a radius in points, whose vertex is not hidden behind the surface.
+//! - [`Picker::pick_curve`] finds the constraint curve with an edge nearest the cursor in screen
+//!   space, within a radius, at a point not hidden behind the surface.
 //!
 //! **Why a CPU BVH, and why `obvhs`.** A ray cast answers synchronously on the mouse move that
 //! asks (a GPU id buffer answers a frame or more later, and needs a second render target and a
@@ -28,6 +30,7 @@ use obvhs::ray::{Ray as BvhRay, RayHit};
 use obvhs::triangle::Triangle;
 
 use super::camera::OrbitCamera;
+use crate::constraint::Curve;
 use crate::mesh::TriMesh;
 
 /// A world-space ray (`dir` is unit length).
@@ -195,6 +198,13 @@ impl Picker {
     /// vertex (a face around it, or within a small distance of it) and not in front of it.
     pub fn vertex_visible(&self, view: &View, v: usize) -> bool {
         let p = self.mesh.position(v).as_vec3();
+        self.point_visible(view, p, |f| f.contains(&(v as u32)))
+    }
+
+    /// Whether the surface point `p` is seen from the eye: the ray towards it hits nothing in
+    /// front of it (within a small distance), or hits a face `on_surface` accepts (the faces
+    /// `p` lies on).
+    fn point_visible(&self, view: &View, p: Vec3, on_surface: impl Fn(&[u32; 3]) -> bool) -> bool {
         let eye = view.camera.eye();
         let to = p - eye;
         let dist = to.length();
@@ -212,7 +222,48 @@ impl Picker {
         if hit.t >= dist - tol {
             return true;
         }
-        self.mesh.faces()[hit.face].contains(&(v as u32))
+        on_surface(&self.mesh.faces()[hit.face])
+    }
+
+    /// Of the `curves`, the one with an edge nearest the cursor on screen within `radius_px`
+    /// points, at a point of the edge not hidden behind the surface; its id.
+    pub fn pick_curve<'a>(
+        &self,
+        view: &View,
+        pos: egui::Pos2,
+        curves: impl IntoIterator<Item = &'a Curve>,
+        radius_px: f32,
+    ) -> Option<u32> {
+        let n = self.mesh.n_vertices();
+        let at = |v: usize| self.mesh.position(v).as_vec3();
+        // (screen distance, curve, edge, position along the edge)
+        let mut near: Vec<(f32, u32, usize, usize, f32)> = Vec::new();
+        for c in curves {
+            for (a, b) in c.segments() {
+                if a >= n || b >= n {
+                    continue;
+                }
+                let (Some(sa), Some(sb)) = (project(view, at(a)), project(view, at(b))) else {
+                    continue;
+                };
+                let (d, t) = distance_to_segment(pos, sa, sb);
+                if d <= radius_px {
+                    near.push((d, c.id, a, b, t));
+                }
+            }
+        }
+        near.sort_by(|x, y| x.0.total_cmp(&y.0));
+        // Screen and world parameters along an edge differ by the perspective: close enough
+        // for a visibility test, which accepts both faces of the edge.
+        near.into_iter()
+            .take(64)
+            .find(|&(_, _, a, b, t)| {
+                let (a32, b32) = (a as u32, b as u32);
+                self.point_visible(view, at(a).lerp(at(b), t), |f| {
+                    f.contains(&a32) && f.contains(&b32)
+                })
+            })
+            .map(|(_, id, ..)| id)
     }
 
     /// Of the `vertices`, the one whose glyph is nearest the cursor on screen within
@@ -238,6 +289,19 @@ impl Picker {
             .map(|(_, v)| v)
             .find(|&v| self.vertex_visible(view, v))
     }
+}
+
+/// The distance from `p` to the segment `a`-`b` (screen points) and the parameter of the
+/// nearest point along it (0 at `a`, 1 at `b`).
+pub fn distance_to_segment(p: egui::Pos2, a: egui::Pos2, b: egui::Pos2) -> (f32, f32) {
+    let ab = b - a;
+    let len2 = ab.length_sq();
+    let t = if len2 > 0.0 {
+        ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    ((a + ab * t).distance(p), t)
 }
 
 #[cfg(test)]
@@ -379,5 +443,55 @@ mod tests {
         assert!(!picker.vertex_visible(&v, behind));
         assert!(picker.vertex_visible(&v, 12));
         assert_eq!(picker.pick_vertex_glyph(&v, s, [behind], 10.0), None);
+    }
+
+    #[test]
+    fn curves_are_picked_near_their_edges_and_not_through_the_surface() {
+        use crate::constraint::{CurveKind, CurveOrigin};
+        // The front grid of `hidden_vertices_are_not_picked`'s pair, and one behind it.
+        let front = grid(4);
+        let mut p: Vec<DVec3> = front.positions().to_vec();
+        let n0 = p.len();
+        p.extend(front.positions().iter().map(|q| *q - DVec3::Z * 0.5));
+        let mut t: Vec<[u32; 3]> = front.faces().to_vec();
+        t.extend(front.faces().iter().map(|f| f.map(|v| v + n0 as u32)));
+        let mesh = Arc::new(TriMesh::from_triangles(p, t).unwrap());
+        let picker = Picker::new(mesh.clone());
+        let v = view();
+        let curve = |id, vertices: Vec<usize>| Curve {
+            id,
+            vertices,
+            closed: false,
+            kind: CurveKind::Geometric,
+            origin: CurveOrigin::Drawn,
+        };
+        // Row 2 of the front grid (vertices 10..=14), and the same row behind it.
+        let front_row = curve(3, (10..=14).collect());
+        let back_row = curve(7, (n0 + 10..=n0 + 14).collect());
+        let mid = |a: usize, b: usize| {
+            let pa = project(&v, mesh.position(a).as_vec3()).unwrap();
+            let pb = project(&v, mesh.position(b).as_vec3()).unwrap();
+            pa + (pb - pa) * 0.5
+        };
+        let s = mid(11, 12);
+        assert_eq!(
+            picker.pick_curve(&v, s + egui::vec2(0.0, 3.0), [&front_row, &back_row], 6.0),
+            Some(3)
+        );
+        assert_eq!(
+            picker.pick_curve(&v, s + egui::vec2(0.0, 30.0), [&front_row], 6.0),
+            None
+        );
+        // the row behind projects near the front one but is hidden
+        let sb = mid(n0 + 11, n0 + 12);
+        assert_eq!(picker.pick_curve(&v, sb, [&back_row], 6.0), None);
+        assert_eq!(
+            distance_to_segment(
+                egui::pos2(1.0, 1.0),
+                egui::pos2(0.0, 0.0),
+                egui::pos2(2.0, 0.0)
+            ),
+            (1.0, 0.5)
+        );
     }
 }

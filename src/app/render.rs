@@ -10,7 +10,7 @@ use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
 use super::camera::OrbitCamera;
-use super::scene::{Glyph, LineSegment, SceneData, Vertex};
+use super::scene::{Glyph, LineSegment, Overlay, SceneData, Vertex};
 use super::settings::{DisplayMode, DisplaySettings, Pattern, Shading};
 
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
@@ -220,6 +220,8 @@ pub struct Renderer {
     lic_pipeline: wgpu::RenderPipeline,
     target_layouts: TargetLayouts,
     line_pipeline: wgpu::RenderPipeline,
+    /// Lines twice the overlay width (geometric and highlighted curves).
+    thick_line_pipeline: wgpu::RenderPipeline,
     glyph_pipeline: wgpu::RenderPipeline,
     mesh_bgl: wgpu::BindGroupLayout,
     uniform_buffer: wgpu::Buffer,
@@ -228,16 +230,19 @@ pub struct Renderer {
     sampler: wgpu::Sampler,
     pattern_view: wgpu::TextureView,
     scene: Option<GpuScene>,
-    /// Transient overlay of the active tool (hover highlight, drag preview), drawn over the
-    /// scene; small, so it is uploaded separately from the scene whenever it changes.
-    overlay: Option<GpuOverlay>,
+    /// Overlays drawn over the scene, in slot order (the constraint curves, the feature preview,
+    /// the active tool's hover highlight and drag preview); small, so each is uploaded apart
+    /// from the scene whenever its revision changes ([`Renderer::sync_overlays`]).
+    overlays: Vec<Option<GpuOverlay>>,
     /// Number of scene uploads so far (lets tests check buffers are not rebuilt per frame).
     pub uploads: u64,
 }
 
-/// Buffers of the transient overlay.
+/// Buffers of one overlay.
 struct GpuOverlay {
+    revision: u64,
     lines: Option<(wgpu::Buffer, u32)>,
+    thick_lines: Option<(wgpu::Buffer, u32)>,
     glyphs: Option<(wgpu::Buffer, u32)>,
 }
 
@@ -527,6 +532,13 @@ impl Renderer {
             std::mem::size_of::<LineSegment>(),
             &line_attrs(),
         );
+        let thick_line_pipeline = overlay_pipeline(
+            "quadcover thick lines",
+            "vs_thick_line",
+            "fs_line",
+            std::mem::size_of::<LineSegment>(),
+            &line_attrs(),
+        );
         let glyph_pipeline = overlay_pipeline(
             "quadcover glyphs",
             "vs_glyph",
@@ -570,6 +582,7 @@ impl Renderer {
             lic_pipeline,
             target_layouts,
             line_pipeline,
+            thick_line_pipeline,
             glyph_pipeline,
             mesh_bgl,
             uniform_buffer,
@@ -578,7 +591,7 @@ impl Renderer {
             sampler,
             pattern_view,
             scene: None,
-            overlay: None,
+            overlays: Vec::new(),
             uploads: 0,
         }
     }
@@ -620,21 +633,42 @@ impl Renderer {
         self.scene = None;
     }
 
-    /// Replaces the tool overlay (lines and glyphs drawn over the scene; empty clears it).
-    pub fn set_overlay(&mut self, device: &wgpu::Device, lines: &[LineSegment], glyphs: &[Glyph]) {
-        let instances = |label, bytes: &[u8], n: usize| instance_buffer(device, label, bytes, n);
-        self.overlay = (!lines.is_empty() || !glyphs.is_empty()).then(|| GpuOverlay {
-            lines: instances(
-                "quadcover overlay lines",
-                bytemuck::cast_slice(lines),
-                lines.len(),
-            ),
-            glyphs: instances(
-                "quadcover overlay glyphs",
-                bytemuck::cast_slice(glyphs),
-                glyphs.len(),
-            ),
-        });
+    /// Replaces the overlays drawn over the scene (slot `i` is `overlays[i]`, drawn in slot
+    /// order; `None` or an empty overlay draws nothing). A slot whose revision is already on the
+    /// GPU is not uploaded again.
+    pub fn sync_overlays(&mut self, device: &wgpu::Device, overlays: &[Option<&Overlay>]) {
+        self.overlays.resize_with(overlays.len(), || None);
+        for (slot, overlay) in self.overlays.iter_mut().zip(overlays) {
+            let Some(o) = overlay.filter(|o| !o.is_empty()) else {
+                *slot = None;
+                continue;
+            };
+            if slot.as_ref().is_some_and(|g| g.revision == o.revision) {
+                continue;
+            }
+            let instances = |label, lines: &[LineSegment]| {
+                instance_buffer(device, label, bytemuck::cast_slice(lines), lines.len())
+            };
+            *slot = Some(GpuOverlay {
+                revision: o.revision,
+                lines: instances("quadcover overlay lines", &o.lines),
+                thick_lines: instances("quadcover overlay thick lines", &o.thick_lines),
+                glyphs: instance_buffer(
+                    device,
+                    "quadcover overlay glyphs",
+                    bytemuck::cast_slice(&o.glyphs),
+                    o.glyphs.len(),
+                ),
+            });
+        }
+    }
+
+    /// The revisions of the overlays on the GPU, by slot (tests check uploads are skipped).
+    pub fn overlay_revisions(&self) -> Vec<Option<u64>> {
+        self.overlays
+            .iter()
+            .map(|o| o.as_ref().map(|g| g.revision))
+            .collect()
     }
 
     pub fn has_scene(&self) -> bool {
@@ -788,27 +822,26 @@ impl Renderer {
             pass.set_vertex_buffer(0, buf.slice(..));
             pass.draw(0..6, 0..*n);
         }
-        if settings.show_singularities
-            && let Some((buf, n)) = &scene.glyphs
-        {
-            pass.set_pipeline(&self.glyph_pipeline);
-            pass.set_bind_group(0, &self.overlay_bind_group, &[]);
-            pass.set_vertex_buffer(0, buf.slice(..));
-            pass.draw(0..6, 0..*n);
+        // Overlay lines over the scene's (the cut graph), glyphs over every line.
+        let draw = |pass: &mut wgpu::RenderPass<'_>,
+                    pipeline: &wgpu::RenderPipeline,
+                    instances: &Option<(wgpu::Buffer, u32)>| {
+            if let Some((buf, n)) = instances {
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, &self.overlay_bind_group, &[]);
+                pass.set_vertex_buffer(0, buf.slice(..));
+                pass.draw(0..6, 0..*n);
+            }
+        };
+        for overlay in self.overlays.iter().flatten() {
+            draw(&mut pass, &self.line_pipeline, &overlay.lines);
+            draw(&mut pass, &self.thick_line_pipeline, &overlay.thick_lines);
         }
-        if let Some(overlay) = &self.overlay {
-            if let Some((buf, n)) = &overlay.lines {
-                pass.set_pipeline(&self.line_pipeline);
-                pass.set_bind_group(0, &self.overlay_bind_group, &[]);
-                pass.set_vertex_buffer(0, buf.slice(..));
-                pass.draw(0..6, 0..*n);
-            }
-            if let Some((buf, n)) = &overlay.glyphs {
-                pass.set_pipeline(&self.glyph_pipeline);
-                pass.set_bind_group(0, &self.overlay_bind_group, &[]);
-                pass.set_vertex_buffer(0, buf.slice(..));
-                pass.draw(0..6, 0..*n);
-            }
+        if settings.show_singularities {
+            draw(&mut pass, &self.glyph_pipeline, &scene.glyphs);
+        }
+        for overlay in self.overlays.iter().flatten() {
+            draw(&mut pass, &self.glyph_pipeline, &overlay.glyphs);
         }
     }
 }

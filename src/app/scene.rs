@@ -39,13 +39,24 @@ pub struct Glyph {
     pub color: [f32; 4],
 }
 
-/// The active tool's transient overlay (drag preview), uploaded apart from the scene so a
-/// change does not re-upload the mesh. `revision` changes whenever the content does.
+/// Lines and glyphs drawn over the scene and uploaded apart from it, so a change does not
+/// re-upload the mesh: the constraint curves, the feature preview, the active tool's transient
+/// overlay (drag preview, selection). `revision` changes whenever the content does (a new
+/// number from `tools::next_overlay_revision`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Overlay {
     pub revision: u64,
+    /// Lines of the overlay width ([`super::settings::DisplaySettings::overlay_line_width_px`]).
     pub lines: Vec<LineSegment>,
+    /// Lines twice as wide, drawn after `lines`.
+    pub thick_lines: Vec<LineSegment>,
     pub glyphs: Vec<Glyph>,
+}
+
+impl Overlay {
+    pub fn is_empty(&self) -> bool {
+        self.lines.is_empty() && self.thick_lines.is_empty() && self.glyphs.is_empty()
+    }
 }
 
 /// Everything the renderer uploads for one version of the document.

@@ -114,6 +114,8 @@ pub struct DisplaySettings {
     pub lic_strength: f32,
     pub show_singularities: bool,
     pub show_lines: bool,
+    /// Draw the constraint curves.
+    pub show_curves: bool,
     pub glyph_size_px: f32,
     pub overlay_line_width_px: f32,
     /// Linear RGB.
@@ -137,6 +139,7 @@ impl Default for DisplaySettings {
             lic_strength: 0.9,
             show_singularities: true,
             show_lines: true,
+            show_curves: true,
             glyph_size_px: 14.0,
             overlay_line_width_px: 2.5,
             base_color: [0.62, 0.66, 0.72],

@@ -24,18 +24,23 @@ impl EditorApp {
         self.last_view = view;
 
         // The tool sees the pointer first; a press it does not claim orbits the camera.
-        let (pos, pressed, released, down, moved, shift) = ui.input(|i| {
+        let (pos, pressed, released, down, moved, modifiers, double) = ui.input(|i| {
             (
                 i.pointer.interact_pos().or(i.pointer.hover_pos()),
                 i.pointer.primary_pressed(),
                 i.pointer.primary_released(),
                 i.pointer.primary_down(),
                 i.pointer.delta() != egui::Vec2::ZERO || i.pointer.is_moving(),
-                i.modifiers.shift,
+                i.modifiers,
+                i.pointer
+                    .button_double_clicked(egui::PointerButton::Primary),
             )
         });
-        let escape =
-            !ui.ctx().egui_wants_keyboard_input() && ui.input(|i| i.key_pressed(egui::Key::Escape));
+        let shift = modifiers.shift;
+        let keys = !ui.ctx().egui_wants_keyboard_input() && self.confirm.is_none();
+        let key = |k: egui::Key| keys && ui.input(|i| i.key_pressed(k));
+        let (escape, enter) = (key(egui::Key::Escape), key(egui::Key::Enter));
+        let delete = key(egui::Key::Delete) || key(egui::Key::Backspace);
         let over = pos
             .filter(|p| rect.contains(*p) && !fit_rect.contains(*p) && response.contains_pointer());
         let picker = {
@@ -48,20 +53,20 @@ impl EditorApp {
             view,
             document: &self.document,
             picker,
+            modifiers,
         };
         let mut out = ToolOutput::default();
         let mut feed = |tool: &mut Box<dyn super::tools::Tool>, ev: ToolEvent| {
-            let o = tool.event(&cx, ev);
-            out.captured |= o.captured;
-            if o.commit.is_some() {
-                out.commit = o.commit;
-            }
-            if o.status.is_some() {
-                out.status = o.status;
-            }
+            out.merge(tool.event(&cx, ev));
         };
         if escape {
             feed(&mut self.tool, ToolEvent::Cancel);
+        }
+        if enter {
+            feed(&mut self.tool, ToolEvent::Finish);
+        }
+        if delete {
+            feed(&mut self.tool, ToolEvent::Delete);
         }
         let mut hold = false;
         if self.tool.active() {
@@ -81,6 +86,9 @@ impl EditorApp {
             feed(&mut self.tool, ToolEvent::Press(p));
         } else if !down {
             feed(&mut self.tool, ToolEvent::Hover(over));
+        }
+        if double && let Some(p) = over {
+            feed(&mut self.tool, ToolEvent::DoubleClick(p));
         }
         out.captured |= hold;
         let captured = out.captured || self.tool.active();
@@ -114,7 +122,11 @@ impl EditorApp {
                 size_px: self.viewport_px,
                 revision: self.document.revision(),
                 scene: self.document.scene().cloned(),
-                overlay: self.tool.overlay(),
+                overlays: vec![
+                    self.curves_overlay(),
+                    self.feature_preview_overlay(),
+                    self.tool.overlay(),
+                ],
             };
             ui.painter()
                 .add(egui_wgpu::Callback::new_paint_callback(rect, cb));
@@ -135,6 +147,7 @@ impl EditorApp {
             },
             document: &self.document,
             picker: None,
+            modifiers,
         };
         self.tool.paint(&cx, ui);
 
@@ -149,17 +162,6 @@ impl EditorApp {
             ui.put(r, egui::Spinner::new());
         }
 
-        if let Some(s) = out.status {
-            if out.commit.is_none() && !s.contains("cancelled") {
-                // a refusal: shown once, as the panel's notice
-                self.status = "Move refused (see Edits)".into();
-                self.notice = Some(s);
-            } else {
-                self.status = s;
-            }
-        }
-        if let Some(edit) = out.commit {
-            self.commit_edit(edit);
-        }
+        self.take_tool_output(out);
     }
 }

@@ -22,8 +22,6 @@ pub struct ViewportResources {
     blit_bind_group: Option<wgpu::BindGroup>,
     /// Revision of the scene currently uploaded.
     pub scene_revision: Option<u64>,
-    /// Revision of the tool overlay currently uploaded.
-    pub overlay_revision: Option<u64>,
 }
 
 impl ViewportResources {
@@ -67,7 +65,6 @@ impl ViewportResources {
             blit_sampler,
             blit_bind_group: None,
             scene_revision: None,
-            overlay_revision: None,
         }
     }
 
@@ -109,17 +106,10 @@ impl ViewportResources {
         self.scene_revision = Some(revision);
     }
 
-    /// Uploads the tool overlay unless its revision is already on the GPU.
-    pub fn sync_overlay(&mut self, device: &wgpu::Device, overlay: Option<&Overlay>) {
-        let revision = overlay.map(|o| o.revision);
-        if self.overlay_revision == revision {
-            return;
-        }
-        match overlay {
-            Some(o) => self.renderer.set_overlay(device, &o.lines, &o.glyphs),
-            None => self.renderer.set_overlay(device, &[], &[]),
-        }
-        self.overlay_revision = revision;
+    /// Uploads the overlays whose revisions are not on the GPU yet (slot order is draw order).
+    pub fn sync_overlays(&mut self, device: &wgpu::Device, overlays: &[Option<Arc<Overlay>>]) {
+        let slots: Vec<Option<&Overlay>> = overlays.iter().map(|o| o.as_deref()).collect();
+        self.renderer.sync_overlays(device, &slots);
     }
 }
 
@@ -131,8 +121,9 @@ pub struct ViewportCallback {
     pub size_px: [u32; 2],
     pub revision: u64,
     pub scene: Option<Arc<SceneData>>,
-    /// The active tool's overlay (drag preview).
-    pub overlay: Option<Arc<Overlay>>,
+    /// Overlays in draw order: the constraint curves, the feature preview, the active tool's
+    /// (selection, drag preview).
+    pub overlays: Vec<Option<Arc<Overlay>>>,
 }
 
 impl egui_wgpu::CallbackTrait for ViewportCallback {
@@ -148,7 +139,7 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
             return Vec::new();
         };
         res.sync_scene(device, self.revision, self.scene.as_deref());
-        res.sync_overlay(device, self.overlay.as_deref());
+        res.sync_overlays(device, &self.overlays);
         res.ensure_target(device, self.size_px[0], self.size_px[1]);
         if let Some(target) = &res.target {
             res.renderer

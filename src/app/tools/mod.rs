@@ -7,7 +7,14 @@
 //! gesture is one undo step. Tools never change the document themselves; they read it (and
 //! the core's [`crate::edit::Base`]) through [`ToolContext`], and ask [`super::picking`] what
 //! is under the cursor. A press a tool does not claim falls through to the camera (orbit).
+//! A tool may also show controls in the side panel ([`Tool::panel`]), which commit edits the
+//! same way.
+//!
+//! - [`MoveSingularityTool`]: drag singularity glyphs (thesis sec. 3.3).
+//! - [`DrawCurveTool`]: draw constraint curves by clicks or strokes, select, retype and delete
+//!   them (sec. 4.4).
 
+pub mod draw_curve;
 pub mod move_singularity;
 
 use std::sync::Arc;
@@ -17,6 +24,7 @@ use super::picking::{Picker, View};
 use super::scene::Overlay;
 use crate::edit::Edit;
 
+pub use draw_curve::DrawCurveTool;
 pub use move_singularity::MoveSingularityTool;
 
 /// What a tool sees of the editor in one frame.
@@ -25,6 +33,8 @@ pub struct ToolContext<'a> {
     pub document: &'a Document,
     /// `None` while the mesh's BVH is still being built.
     pub picker: Option<&'a Picker>,
+    /// The keyboard modifiers held in this frame.
+    pub modifiers: egui::Modifiers,
 }
 
 /// Pointer and key input over the viewport (positions in egui points).
@@ -40,6 +50,12 @@ pub enum ToolEvent {
     Release(egui::Pos2),
     /// Esc: abandon the gesture.
     Cancel,
+    /// Enter: finish what is being built (e.g. an open curve).
+    Finish,
+    /// A double click of the primary button at a position (after its second release).
+    DoubleClick(egui::Pos2),
+    /// Delete or Backspace: remove the selection.
+    Delete,
 }
 
 /// A tool's answer to one event.
@@ -49,8 +65,26 @@ pub struct ToolOutput {
     pub captured: bool,
     /// The edit the finished gesture commits.
     pub commit: Option<Edit>,
-    /// A message for the status line (e.g. why a gesture was refused).
+    /// A message for the status line.
     pub status: Option<String>,
+    /// Why a gesture was refused: shown as the side panel's notice.
+    pub notice: Option<String>,
+}
+
+impl ToolOutput {
+    /// Takes `other`'s commit, status and notice where it has them.
+    pub fn merge(&mut self, other: ToolOutput) {
+        self.captured |= other.captured;
+        if other.commit.is_some() {
+            self.commit = other.commit;
+        }
+        if other.status.is_some() {
+            self.status = other.status;
+        }
+        if other.notice.is_some() {
+            self.notice = other.notice;
+        }
+    }
 }
 
 /// An interaction mode of the viewport.
@@ -66,12 +100,59 @@ pub trait Tool {
     /// Screen-space hints: highlight rings, a tooltip.
     fn paint(&self, cx: &ToolContext, ui: &mut egui::Ui);
     /// Drops any gesture and hover state (the document changed under it, or another tool
-    /// took over).
+    /// took over). A selection stays (it is checked against the document when used).
     fn reset(&mut self);
+    /// Drops the selection too (another document was opened).
+    fn clear_selection(&mut self) {}
+    /// The tool's controls in the side panel; an edit they commit goes through
+    /// [`ToolOutput::commit`] like a gesture's.
+    fn panel(&mut self, cx: &ToolContext, ui: &mut egui::Ui) -> ToolOutput {
+        let _ = (cx, ui);
+        ToolOutput::default()
+    }
+    /// The selected constraint curve's id, for tools that select curves.
+    fn selected_curve(&self) -> Option<u32> {
+        None
+    }
 }
 
 /// The overlay revision counter (shared by all tools, so revisions never repeat).
 pub(crate) fn next_overlay_revision() -> u64 {
     static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
     NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+}
+
+/// The viewport tools the side panel offers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ToolKind {
+    MoveSingularity,
+    DrawCurve,
+}
+
+impl ToolKind {
+    pub const ALL: [ToolKind; 2] = [ToolKind::MoveSingularity, ToolKind::DrawCurve];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            ToolKind::MoveSingularity => "Move singularities",
+            ToolKind::DrawCurve => "Draw curves",
+        }
+    }
+
+    pub fn hint(self) -> &'static str {
+        match self {
+            ToolKind::MoveSingularity => "Drag singularity glyphs to move or merge them",
+            ToolKind::DrawCurve => {
+                "Click vertices or drag strokes to draw constraint curves; click a curve to select it"
+            }
+        }
+    }
+
+    /// A fresh tool of this kind.
+    pub fn make(self) -> Box<dyn Tool> {
+        match self {
+            ToolKind::MoveSingularity => Box::new(MoveSingularityTool::new()),
+            ToolKind::DrawCurve => Box::new(DrawCurveTool::new()),
+        }
+    }
 }

@@ -135,6 +135,7 @@ impl MoveSingularityTool {
                 revision: next_overlay_revision(),
                 lines,
                 glyphs,
+                ..Overlay::default()
             })
         });
     }
@@ -211,7 +212,7 @@ impl Tool for MoveSingularityTool {
                     return out;
                 };
                 let Some((_, state)) = cx.document.editable() else {
-                    out.status =
+                    out.notice =
                         Some("Wait for the solve to finish before moving singularities".into());
                     return out;
                 };
@@ -256,7 +257,7 @@ impl Tool for MoveSingularityTool {
                                     to: base.file_vertex(to),
                                 });
                             }
-                            Err(why) => out.status = Some(why.clone()),
+                            Err(why) => out.notice = Some(why.clone()),
                         }
                     }
                     self.state = match Self::pick_singularity(cx, pos, None) {
@@ -274,6 +275,7 @@ impl Tool for MoveSingularityTool {
                     self.state = State::Idle;
                 }
             }
+            ToolEvent::Finish | ToolEvent::DoubleClick(_) | ToolEvent::Delete => {}
         }
         out
     }
@@ -341,5 +343,12 @@ impl Tool for MoveSingularityTool {
 
     fn reset(&mut self) {
         self.state = State::Idle;
+    }
+
+    fn panel(&mut self, cx: &ToolContext, ui: &mut egui::Ui) -> ToolOutput {
+        if cx.document.editable().is_some() {
+            ui.weak("Drag a singularity glyph to move or merge it (Esc cancels)");
+        }
+        ToolOutput::default()
     }
 }
