@@ -126,6 +126,73 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     if args.only.is_none() {
         remesh_comparison(args)?;
         relax_comparison(args)?;
+        constraint_costs(args)?;
+    }
+    Ok(())
+}
+
+/// What constraint curves cost (thesis sec. 4.4): fandisk with its sharp features and the bunny
+/// with its boundary aligned, beside the same solve without curves: the field designed with the
+/// curves, QuadCover's factorizations, and the solve (tracing, integer elimination, the
+/// constrained global step, which has its own factorization).
+fn constraint_costs(args: &BenchArgs) -> Result<(), CliError> {
+    println!();
+    println!(
+        "{:<34} {:>8} {:>10} {:>12} {:>10} {:>8} {:>8}",
+        "constraints (N = 4, defaults)",
+        "curves",
+        "field ms",
+        "factor. ms",
+        "solve ms",
+        "flipped",
+        "p99"
+    );
+    for (file, edit, label) in [
+        (
+            "fandisk.obj",
+            Edit::DetectFeatures { angle_deg: 40.0 },
+            "features 40 deg",
+        ),
+        (
+            "bunny.obj",
+            Edit::AlignBoundary { on: true },
+            "aligned boundary",
+        ),
+    ] {
+        let loaded = load_mesh(&args.meshes.join(file))?;
+        let base = Base::new(
+            std::sync::Arc::new(loaded.mesh),
+            loaded.report.original_vertex,
+            loaded.file_vertices,
+            Settings::default(),
+            &crate::edit::never,
+        )?;
+        let s0 = base.initial().clone();
+        let t = std::time::Instant::now();
+        let s1 = base.apply(&s0, &edit, &crate::edit::never)?;
+        let design_ms = t.elapsed().as_secs_f64() * 1e3;
+        for (what, state, field_ms) in [("without curves", &s0, f64::NAN), (label, &s1, design_ms)]
+        {
+            let solved = base.solve(state, &crate::edit::never)?;
+            let lap = |name: &str| {
+                1e3 * solved
+                    .timings
+                    .iter()
+                    .filter(|(s, _)| s.contains(name))
+                    .map(|(_, t)| t)
+                    .sum::<f64>()
+            };
+            println!(
+                "{:<34} {:>8} {:>10.1} {:>12.1} {:>10.1} {:>8} {:>8.3}",
+                format!("{} {}", file.trim_end_matches(".obj"), what),
+                state.curves.len(),
+                field_ms,
+                lap("factorizations"),
+                lap("QuadCover solve"),
+                solved.param.flipped_faces,
+                solved.param.conformal_distortion.p99
+            );
+        }
     }
     Ok(())
 }
