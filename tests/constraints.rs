@@ -4,9 +4,6 @@
 //! two singularities on one line; contradictions name the curve; curve edits replay
 //! bit-identically and broken curves are errors naming the curve and the position.
 
-use std::path::Path;
-use std::sync::Arc;
-
 use quadcover::constraint::{CurveKind, shortest_edge_path};
 use quadcover::edit::{Base, Edit, EditError, EditState, Settings, Solved};
 use quadcover::mesh::{TriMesh, generate};
@@ -16,29 +13,9 @@ use seams::contract_error;
 #[path = "support/seams.rs"]
 mod seams;
 
-const MESHES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/meshes");
-
-fn shared(name: &str) -> Option<std::path::PathBuf> {
-    let p = Path::new(MESHES).join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipping: {} not found", p.display());
-        None
-    }
-}
-
-fn base_for(path: &Path, settings: Settings) -> Base {
-    let loaded = quadcover::load::load_mesh(path).unwrap();
-    Base::new(
-        Arc::new(loaded.mesh),
-        loaded.report.original_vertex,
-        loaded.file_vertices,
-        settings,
-        &quadcover::edit::never,
-    )
-    .unwrap()
-}
+#[path = "support/meshes.rs"]
+mod meshes;
+use meshes::{base_for, shared};
 
 fn replay_solve(base: &Base, edits: &[Edit]) -> (EditState, Solved) {
     let r = base.replay(edits, &quadcover::edit::never).unwrap();

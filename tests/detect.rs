@@ -2,7 +2,6 @@
 //! curve, every curve a valid edge path, curves ending exactly at split points.
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
 
 use quadcover::constraint::detect::SHARP_TURN_DEG;
 use quadcover::constraint::{
@@ -10,17 +9,9 @@ use quadcover::constraint::{
 };
 use quadcover::mesh::TriMesh;
 
-const MESHES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/meshes");
-
-fn shared(name: &str) -> Option<PathBuf> {
-    let p = Path::new(MESHES).join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipping: {} not found", p.display());
-        None
-    }
-}
+#[path = "support/meshes.rs"]
+mod meshes;
+use meshes::shared;
 
 fn load(name: &str) -> Option<TriMesh> {
     shared(name).map(|p| quadcover::load::load_mesh(&p).unwrap().mesh)

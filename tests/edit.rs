@@ -14,29 +14,9 @@ use seams::contract_error;
 #[path = "support/seams.rs"]
 mod seams;
 
-const MESHES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/meshes");
-
-fn shared(name: &str) -> Option<std::path::PathBuf> {
-    let p = Path::new(MESHES).join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipping: {} not found", p.display());
-        None
-    }
-}
-
-fn base_for(path: &Path, settings: Settings) -> Base {
-    let loaded = quadcover::load::load_mesh(path).unwrap();
-    Base::new(
-        Arc::new(loaded.mesh),
-        loaded.report.original_vertex,
-        loaded.file_vertices,
-        settings,
-        &quadcover::edit::never,
-    )
-    .unwrap()
-}
+#[path = "support/meshes.rs"]
+mod meshes;
+use meshes::{MESHES, base_for, shared};
 
 /// The state's singularities in file vertex indices.
 fn file_set(base: &Base, s: &EditState) -> BTreeMap<usize, i32> {

@@ -16,7 +16,7 @@ use crate::mesh::TriMesh;
 
 pub use align::{CurveAlignment, alignment};
 pub use detect::{DetectedCurve, boundary_curves, detect_features, feature_edges};
-pub use path::shortest_edge_path;
+pub use path::{edge_key, path_edges, shortest_edge_path, shortest_edge_path_avoiding};
 
 /// Whether a parameter line runs exactly along the curve, or only the layout it implies holds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -87,25 +87,108 @@ pub fn halfedge_between(mesh: &TriMesh, a: usize, b: usize) -> Option<usize> {
         .or_else(|| mesh.outgoing(b).find(|&h| mesh.to(h) == a))
 }
 
+/// What is wrong with a curve's vertex list ([`check_path`]), by 0-based positions in it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum PathError {
+    TooShort {
+        closed: bool,
+        need: usize,
+        len: usize,
+    },
+    OutOfRange {
+        position: usize,
+        vertex: usize,
+        n_vertices: usize,
+    },
+    NoEdge {
+        positions: [usize; 2],
+        vertices: [usize; 2],
+    },
+    EdgeTwice {
+        positions: [usize; 2],
+        vertices: [usize; 2],
+    },
+}
+
+impl PathError {
+    /// The message with the vertex at each position named by `name(position)` (e.g. the
+    /// file's vertex numbers where the check ran on the repaired mesh's).
+    pub fn describe(&self, name: impl Fn(usize) -> usize) -> String {
+        match *self {
+            PathError::TooShort { closed, need, len } => format!(
+                "a{} curve needs at least {need} vertices, this one has {len}",
+                if closed { " closed" } else { "n open" }
+            ),
+            PathError::OutOfRange {
+                position,
+                n_vertices,
+                ..
+            } => format!(
+                "vertex {} at position {position} is out of range (the mesh has {n_vertices} vertices)",
+                name(position)
+            ),
+            PathError::NoEdge {
+                positions: [i, j], ..
+            } => format!(
+                "vertices {} and {} at positions {i} and {j} share no edge",
+                name(i),
+                name(j)
+            ),
+            PathError::EdgeTwice {
+                positions: [i, j], ..
+            } => format!(
+                "the edge {}-{} at positions {i} and {j} is used twice",
+                name(i),
+                name(j)
+            ),
+        }
+    }
+
+    fn vertex_at(&self, position: usize) -> usize {
+        match *self {
+            PathError::OutOfRange { vertex, .. } => vertex,
+            PathError::NoEdge {
+                positions,
+                vertices,
+            }
+            | PathError::EdgeTwice {
+                positions,
+                vertices,
+            } => vertices[(positions[1] == position) as usize],
+            PathError::TooShort { .. } => position,
+        }
+    }
+}
+
+impl std::fmt::Display for PathError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.describe(|p| self.vertex_at(p)))
+    }
+}
+
+impl std::error::Error for PathError {}
+
 /// Checks a curve's vertex list against the mesh: at least two vertices (three when closed),
-/// every vertex on the mesh, consecutive ones sharing an edge, no edge used twice. The error
-/// names the positions (0-based) involved.
-pub fn check_path(mesh: &TriMesh, vertices: &[usize], closed: bool) -> Result<(), String> {
+/// every vertex on the mesh, consecutive ones sharing an edge, no edge used twice.
+pub fn check_path(mesh: &TriMesh, vertices: &[usize], closed: bool) -> Result<(), PathError> {
     let need = if closed { 3 } else { 2 };
     if vertices.len() < need {
-        return Err(format!(
-            "a{} curve needs at least {need} vertices, this one has {}",
-            if closed { " closed" } else { "n open" },
-            vertices.len()
-        ));
+        return Err(PathError::TooShort {
+            closed,
+            need,
+            len: vertices.len(),
+        });
     }
-    for (i, &v) in vertices.iter().enumerate() {
-        if v >= mesh.n_vertices() {
-            return Err(format!(
-                "vertex {v} at position {i} is out of range (the mesh has {} vertices)",
-                mesh.n_vertices()
-            ));
-        }
+    if let Some((position, &vertex)) = vertices
+        .iter()
+        .enumerate()
+        .find(|(_, v)| **v >= mesh.n_vertices())
+    {
+        return Err(PathError::OutOfRange {
+            position,
+            vertex,
+            n_vertices: mesh.n_vertices(),
+        });
     }
     let n = vertices.len();
     let mut used = std::collections::HashSet::new();
@@ -114,15 +197,18 @@ pub fn check_path(mesh: &TriMesh, vertices: &[usize], closed: bool) -> Result<()
         .chain(closed.then_some((n - 1, 0)));
     for (i, j) in pairs {
         let (a, b) = (vertices[i], vertices[j]);
+        let (positions, pair) = ([i, j], [a, b]);
         let Some(h) = halfedge_between(mesh, a, b).filter(|_| a != b) else {
-            return Err(format!(
-                "vertices {a} and {b} at positions {i} and {j} share no edge"
-            ));
+            return Err(PathError::NoEdge {
+                positions,
+                vertices: pair,
+            });
         };
         if !used.insert(mesh.edge(h)) {
-            return Err(format!(
-                "the edge {a}-{b} at positions {i} and {j} is used twice"
-            ));
+            return Err(PathError::EdgeTwice {
+                positions,
+                vertices: pair,
+            });
         }
     }
     Ok(())
@@ -139,18 +225,20 @@ mod tests {
         // Vertices of the grid are numbered row by row (5 per row).
         assert!(check_path(&m, &[0, 1, 2], false).is_ok());
         let e = check_path(&m, &[0, 1, 7], false).unwrap_err();
-        assert!(e.contains("positions 1 and 2"), "{e}");
+        assert_eq!(
+            e.to_string(),
+            "vertices 1 and 7 at positions 1 and 2 share no edge"
+        );
+        // Named by other numbers (a file's), position by position.
+        assert_eq!(
+            e.describe(|p| [10, 11, 17][p]),
+            "vertices 11 and 17 at positions 1 and 2 share no edge"
+        );
         assert!(check_path(&m, &[0], false).is_err());
-        assert!(
-            check_path(&m, &[0, 99], false)
-                .unwrap_err()
-                .contains("position 1")
-        );
-        assert!(
-            check_path(&m, &[0, 1, 0], false)
-                .unwrap_err()
-                .contains("twice")
-        );
+        let e = check_path(&m, &[0, 99], false).unwrap_err().to_string();
+        assert!(e.contains("vertex 99 at position 1"), "{e}");
+        let e = check_path(&m, &[0, 1, 0], false).unwrap_err().to_string();
+        assert_eq!(e, "the edge 1-0 at positions 1 and 2 is used twice");
         // Boundary edges in both directions.
         assert!(check_path(&m, &[1, 0], false).is_ok());
         assert!(check_path(&m, &[0, 1, 6, 5], true).is_ok());

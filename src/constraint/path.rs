@@ -1,7 +1,7 @@
 //! Shortest edge paths between picked vertices (the curve tool extends a curve by one per click).
 
 use std::cmp::Reverse;
-use std::collections::BinaryHeap;
+use std::collections::{BinaryHeap, HashSet};
 
 use crate::mesh::TriMesh;
 
@@ -9,6 +9,27 @@ use crate::mesh::TriMesh;
 /// all edges, boundary ones too (curves may follow the boundary). `None` when `b` cannot be
 /// reached (another component) or a vertex is out of range.
 pub fn shortest_edge_path(mesh: &TriMesh, a: usize, b: usize) -> Option<Vec<usize>> {
+    shortest_edge_path_avoiding(mesh, a, b, &HashSet::new())
+}
+
+/// An edge as its vertex pair, the smaller first (one edge per pair on a manifold mesh).
+pub fn edge_key(a: usize, b: usize) -> (usize, usize) {
+    (a.min(b), a.max(b))
+}
+
+/// The edges of an open vertex path, as [`edge_key`]s.
+pub fn path_edges(path: &[usize]) -> HashSet<(usize, usize)> {
+    path.windows(2).map(|w| edge_key(w[0], w[1])).collect()
+}
+
+/// [`shortest_edge_path`] over the edges not in `blocked` (the curve tool keeps a curve from
+/// running back along its own edges); `None` when `b` cannot be reached that way.
+pub fn shortest_edge_path_avoiding(
+    mesh: &TriMesh,
+    a: usize,
+    b: usize,
+    blocked: &HashSet<(usize, usize)>,
+) -> Option<Vec<usize>> {
     let nv = mesh.n_vertices();
     if a >= nv || b >= nv {
         return None;
@@ -30,6 +51,9 @@ pub fn shortest_edge_path(mesh: &TriMesh, a: usize, b: usize) -> Option<Vec<usiz
         }
         let p = mesh.position(v);
         for w in mesh.one_ring(v) {
+            if blocked.contains(&edge_key(v, w)) {
+                continue;
+            }
             let nd = d + (mesh.position(w) - p).length();
             if nd < dist[w] {
                 dist[w] = nd;
@@ -80,5 +104,25 @@ mod tests {
         assert_eq!(*q.last().unwrap(), 24);
         assert_eq!(shortest_edge_path(&m, 3, 3), Some(vec![3]));
         assert_eq!(shortest_edge_path(&m, 3, 99), None);
+    }
+
+    #[test]
+    fn paths_avoid_the_blocked_edges_or_are_none() {
+        let m = generate::grid(4, 4, 1.0, 1.0);
+        let blocked = path_edges(&[2, 1]);
+        let p = shortest_edge_path_avoiding(&m, 0, 2, &blocked).unwrap();
+        assert_eq!((p[0], *p.last().unwrap()), (0, 2));
+        assert!(super::super::check_path(&m, &p, false).is_ok());
+        assert!(
+            p.windows(2)
+                .all(|w| !blocked.contains(&edge_key(w[0], w[1])))
+        );
+        // Every edge at vertex 0 blocked: unreachable.
+        let around: HashSet<_> = m.one_ring(0).into_iter().map(|w| edge_key(0, w)).collect();
+        assert_eq!(shortest_edge_path_avoiding(&m, 0, 2, &around), None);
+        assert_eq!(
+            shortest_edge_path_avoiding(&m, 3, 3, &around),
+            Some(vec![3])
+        );
     }
 }

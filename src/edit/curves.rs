@@ -35,17 +35,22 @@ impl Base {
     /// an edge path): what a broken project file gets wrong, as opposed to an edit that no longer
     /// applies to the state. Other edits pass.
     pub fn check_edit(&self, edit: &Edit) -> Result<(), String> {
-        let Edit::AddCurve {
-            id,
-            vertices,
-            closed,
-            ..
-        } = edit
-        else {
-            return Ok(());
-        };
-        let mut mesh_vertices = Vec::with_capacity(vertices.len());
-        for (i, &v) in vertices.iter().enumerate() {
+        match edit {
+            Edit::AddCurve {
+                id,
+                vertices,
+                closed,
+                ..
+            } => self.curve_vertices(*id, vertices, *closed).map(|_| ()),
+            _ => Ok(()),
+        }
+    }
+
+    /// A curve's file vertices as mesh vertices, checked to be an edge path; the error names
+    /// the curve, the positions and the file's vertex numbers.
+    fn curve_vertices(&self, id: u32, file: &[usize], closed: bool) -> Result<Vec<usize>, String> {
+        let mut mesh_vertices = Vec::with_capacity(file.len());
+        for (i, &v) in file.iter().enumerate() {
             match self.mesh_vertex(v) {
                 Some(m) => mesh_vertices.push(m),
                 None => {
@@ -55,12 +60,9 @@ impl Base {
                 }
             }
         }
-        check_path(self.mesh(), &mesh_vertices, *closed).map_err(|why| {
-            format!(
-                "curve {id}: {}",
-                self.file_numbered(&why, &mesh_vertices, vertices)
-            )
-        })
+        check_path(self.mesh(), &mesh_vertices, closed)
+            .map_err(|why| format!("curve {id}: {}", why.describe(|p| file[p])))?;
+        Ok(mesh_vertices)
     }
 
     /// The state after a curve edit; `None` for other edits.
@@ -81,22 +83,10 @@ impl Base {
                 if next.curves.contains_key(id) {
                     return Some(invalid(format!("curve {id} exists already")));
                 }
-                let mut mesh_vertices = Vec::with_capacity(vertices.len());
-                for (i, &v) in vertices.iter().enumerate() {
-                    match self.mesh_vertex(v) {
-                        Some(m) => mesh_vertices.push(m),
-                        None => {
-                            return Some(invalid(format!(
-                                "curve {id}: vertex {v} at position {i} is not on the mesh"
-                            )));
-                        }
-                    }
-                }
-                if let Err(why) = check_path(self.mesh(), &mesh_vertices, *closed) {
-                    // Positions are the list's; vertices are reported as the file's.
-                    let why = self.file_numbered(&why, &mesh_vertices, vertices);
-                    return Some(invalid(format!("curve {id}: {why}")));
-                }
+                let mesh_vertices = match self.curve_vertices(*id, vertices, *closed) {
+                    Ok(v) => v,
+                    Err(why) => return Some(invalid(why)),
+                };
                 next.curves.insert(
                     *id,
                     Curve {
@@ -145,21 +135,5 @@ impl Base {
             _ => return None,
         };
         Some(result)
-    }
-
-    /// `why` (from [`check_path`], in mesh vertex numbers) with the file's vertex numbers.
-    fn file_numbered(&self, why: &str, mesh_vertices: &[usize], file: &[usize]) -> String {
-        if mesh_vertices == file {
-            return why.to_string();
-        }
-        // check_path names vertices as "vertex V" / "vertices A and B" / "edge A-B"; the
-        // positions identify them, so the file's numbers are put back by position.
-        let mut out = why.to_string();
-        for (m, f) in mesh_vertices.iter().zip(file) {
-            if m != f {
-                out = out.replace(&format!(" {m} "), &format!(" {f} "));
-            }
-        }
-        out
     }
 }

@@ -19,7 +19,7 @@ use super::cut::{CutGraph, NONE};
 use super::global::{GlobalSystem, stiffness};
 use super::rot::{M2, Rots, apply, mul, transpose};
 use crate::mesh::TriMesh;
-use crate::sparse::{SparseBuilder, SpdSolver};
+use crate::sparse::{Analysis, SparseBuilder, SpdSolver};
 
 /// Per corner ψ (disk frames) minimising the global energy with the gaps `w` fixed and the
 /// vertex constraints `fixes` holding exactly.
@@ -116,7 +116,16 @@ pub(crate) fn solve(
         }
     }
     let matrix = b.build()?;
-    let y = SpdSolver::new(&matrix)?.solve(&rhs)?;
+    // The unconstrained system's ordering, a 2 × 2 block per vertex: no ordering is computed
+    // again (the pattern is the same vertex adjacency, each vertex doubled).
+    let analysis = match global.analysis().order() {
+        Some(order) => {
+            let blocks: Vec<usize> = order.iter().flat_map(|&v| [2 * v, 2 * v + 1]).collect();
+            Analysis::with_order(&matrix, &blocks)?
+        }
+        None => Analysis::new(&matrix)?,
+    };
+    let y = SpdSolver::with_analysis(analysis, &matrix)?.solve(&rhs)?;
     Ok((0..3 * mesh.n_faces())
         .map(|c| {
             let mut p = consts[c];

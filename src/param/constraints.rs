@@ -16,11 +16,12 @@
 //! C_c w = 0 ([`super::integer`]); the global step then runs with the geometric equations
 //! eliminated ([`super::constrained`]).
 //!
-//! Contradictions are reported with the curves involved: a closed curve whose line family
-//! turns on the way round (it encloses singularities whose indices do not add up to a multiple
-//! of 1/(N/2)... i.e. it cannot close as one line), and a geometric curve across which the map
-//! runs on a large part of its length (it would have to change line family, e.g. through a
-//! singularity).
+//! A geometric curve is split into runs where the field's line family along it changes at a
+//! regular vertex (the curve turns a grid corner there). Contradictions are reported with the
+//! curves involved: a change of line family at a branch point (no line passes straight
+//! through one), a closed curve whose line family turns on the way round (the singularities it
+//! encloses rotate the lattice: it cannot close as one line), a curve along the boundary with
+//! the surface on either side in turn.
 
 use std::collections::BTreeMap;
 
@@ -63,21 +64,15 @@ pub struct CurveFit {
 /// sit on (1/2)Z², (1/3)-points of G6, ...).
 const DENOMINATOR: f64 = 12.0;
 
-/// Fraction of a geometric curve's length on which the map may run across it before the
-/// curve is reported as not representable by one parameter line.
-const ACROSS_FRACTION: f64 = 0.25;
-
 /// Line normals n_λ, the line spacing s and the lattice basis L (columns) of a symmetry.
 pub(crate) struct Lines {
     pub normals: Vec<[f64; 2]>,
     pub spacing: f64,
     pub basis: [[f64; 2]; 2],
-    /// Tolerance of the direction test: tan of half the angle between families.
-    pub across: f64,
 }
 
 impl Lines {
-    pub fn new(n: usize, lattice: Lattice) -> Lines {
+    pub fn new(lattice: Lattice) -> Lines {
         match lattice {
             Lattice::G6 => {
                 let s3 = 3f64.sqrt();
@@ -91,17 +86,14 @@ impl Lines {
                     normals,
                     spacing: s3 / 2.0,
                     basis: [[1.0, 0.0], [0.5, s3 / 2.0]],
-                    across: (std::f64::consts::PI / 6.0).tan(),
                 }
             }
             _ => {
                 let scale = if lattice == Lattice::TwoZ2 { 2.0 } else { 1.0 };
-                let _ = n;
                 Lines {
                     normals: vec![[1.0, 0.0], [0.0, 1.0]],
                     spacing: 1.0,
                     basis: [[scale, 0.0], [0.0, scale]],
-                    across: 1.0,
                 }
             }
         }
@@ -310,7 +302,7 @@ impl Traced {
         measured_gaps: &[[f64; 2]],
         curves: &[ConstraintCurve],
     ) -> Result<Traced, ParamError> {
-        let lines = Lines::new(rots.n, lattice);
+        let lines = Lines::new(lattice);
         let n_gaps = measured_gaps.len();
         let curve_ids: Vec<u32> = curves.iter().map(|c| c.id).collect();
         let pieces = split_by_family(mesh, cut, rots, &lines, disk, curves, &curve_ids)?;
@@ -356,30 +348,6 @@ impl Traced {
                 .min_by(|&a, &b| family_cost(a).total_cmp(&family_cost(b)))
                 .expect("a family");
             let n0 = lines.normals[lambda];
-            if c.geometric {
-                check_along(&walk, rots, n0, lines.across).map_err(|frac| {
-                    let sing: Vec<usize> = walk
-                        .emits
-                        .iter()
-                        .filter(|e| cut.singular[e.vertex])
-                        .map(|e| e.vertex)
-                        .collect();
-                    contradiction(
-                        &ids,
-                        &[ci],
-                        format!(
-                            "curve {} cannot be one parameter line: the field runs across it on {:.0} % of its length (it would have to change line family{})",
-                            c.id,
-                            100.0 * frac,
-                            if sing.is_empty() {
-                                String::new()
-                            } else {
-                                format!(", e.g. through the singularity at vertex {}", sing[0])
-                            }
-                        ),
-                    )
-                })?;
-            }
             let cvar = 2 * n_gaps + ci;
             let mut c_sum = 0.0;
             let mut start_m: Option<[f64; 2]> = None;
@@ -506,8 +474,8 @@ impl Traced {
     /// The integer unknowns after rounding: gaps (lattice vectors) and line values s·c_κ.
     /// `rounded` are the gaps as the plain rounding left them; unknowns in no equation keep
     /// those (and c_κ its nearest integer), the rest take the nearest solution of C_c w = 0.
-    /// `hessian` is the energy's dependence on the gaps ([`GlobalSystem::gap_hessian`]): the
-    /// rounding is nearest in its metric (the gaps that cost least energy give way), the c_κ,
+    /// `hessian` is the energy's dependence on the gaps ([`GlobalSystem::gap_hessian`] on
+    /// [`Traced::metric_gap_components`]): the rounding is nearest in its metric (the gaps that cost least energy give way), the c_κ,
     /// which the energy does not see, follow.
     pub fn round(
         &self,
@@ -564,16 +532,41 @@ impl Traced {
         Ok((gaps, w))
     }
 
+    /// The gap components the energy metric needs: both of every gap some equation involves
+    /// (the lattice basis mixes them).
+    pub fn metric_gap_components(&self) -> Vec<usize> {
+        let m = 2 * self.n_gaps;
+        let mut out: Vec<usize> = self
+            .rows
+            .iter()
+            .flat_map(|(r, _)| r.iter().map(|&(k, _)| k))
+            .filter(|&k| k < m)
+            .flat_map(|k| [k & !1, k | 1])
+            .collect();
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
     /// The energy metric on the involved unknowns in lattice coordinates: Lᵀ H L on gap pairs, a
-    /// small weight on the c_κ, a small regularisation throughout.
+    /// small weight on the c_κ, a small regularisation throughout. `hessian` is H on the
+    /// components [`Traced::metric_gap_components`] gives.
     fn metric(&self, hessian: &[f64], involved: &[usize]) -> Vec<f64> {
-        let ng = self.n_gaps;
-        let m = 2 * ng;
+        let m = 2 * self.n_gaps;
+        let comps = self.metric_gap_components();
+        let kc = comps.len();
+        let at: BTreeMap<usize, usize> = comps.iter().enumerate().map(|(i, &c)| (c, i)).collect();
+        let h = |a: usize, b: usize| -> f64 {
+            match (at.get(&a), at.get(&b)) {
+                (Some(&x), Some(&y)) if hessian.len() == kc * kc => hessian[x * kc + y],
+                _ => 0.0,
+            }
+        };
         let n = involved.len();
         let l = self.lines.basis; // columns
-        // h(a, b) in lattice coordinates: Σ_{r,c} L[r][i] H[2k+r][2l+c] L[c][j].
+        // In lattice coordinates: Σ_{r,c} L[r][i] H[2k+r][2q+c] L[c][j].
         let entry = |a: usize, b: usize| -> f64 {
-            if a >= m || b >= m || hessian.len() != m * m {
+            if a >= m || b >= m {
                 return 0.0;
             }
             let (k, i) = (a / 2, a % 2);
@@ -581,7 +574,7 @@ impl Traced {
             let mut s = 0.0;
             for r in 0..2 {
                 for c in 0..2 {
-                    s += l[i][r] * hessian[(2 * k + r) * m + 2 * q + c] * l[j][c];
+                    s += l[i][r] * h(2 * k + r, 2 * q + c) * l[j][c];
                 }
             }
             s
@@ -791,42 +784,4 @@ fn split_by_family(
         }
     }
     Ok(out)
-}
-
-/// Whether the field runs along the curve in family n0: over windows of a few edges, the
-/// displacement across the line must stay below `across` times the displacement along it on
-/// all but [`ACROSS_FRACTION`] of the length; `Err(fraction across)` otherwise.
-fn check_along(walk: &Walk, rots: &Rots, n0: [f64; 2], across: f64) -> Result<(), f64> {
-    let comps: Vec<(f64, f64, f64)> = walk
-        .edges
-        .iter()
-        .map(|e| {
-            let n = apply(rots.get(e.chart_rot as i64), n0);
-            let t = [-n[1], n[0]];
-            let (dn, dt) = (n[0] * e.d[0] + n[1] * e.d[1], t[0] * e.d[0] + t[1] * e.d[1]);
-            (dn, dt, dn.hypot(dt))
-        })
-        .collect();
-    let total: f64 = comps.iter().map(|c| c.2).sum();
-    if total <= 0.0 {
-        return Ok(());
-    }
-    const HALF: usize = 2;
-    let mut bad = 0.0;
-    for i in 0..comps.len() {
-        let lo = i.saturating_sub(HALF);
-        let hi = (i + HALF + 1).min(comps.len());
-        let (sn, st) = comps[lo..hi]
-            .iter()
-            .fold((0.0, 0.0), |(a, b), c| (a + c.0, b + c.1));
-        if sn.abs() > across * st.abs() {
-            bad += comps[i].2;
-        }
-    }
-    let frac = bad / total;
-    if frac > ACROSS_FRACTION {
-        Err(frac)
-    } else {
-        Ok(())
-    }
 }

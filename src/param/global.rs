@@ -122,6 +122,11 @@ impl GlobalSystem {
         })
     }
 
+    /// The factored system's analysis (its pattern is the mesh's vertex adjacency).
+    pub fn analysis(&self) -> &Analysis {
+        self.solver.analysis()
+    }
+
     /// The pattern of the system: vertex adjacency plus the diagonal (values are placeholders).
     pub fn pattern(mesh: &TriMesh) -> Result<Analysis, ParamError> {
         let nv = mesh.n_vertices();
@@ -200,13 +205,24 @@ impl GlobalSystem {
     /// computed with the reused factorization), then one loop at a time the gap closest to the
     /// lattice is fixed and the others re-optimised (Gaussian conditioning, O(K²) per step).
     /// The energy as a function of the gaps alone (the vertex unknowns eliminated): the dense
-    /// Schur complement H (2K × 2K, row-major, gap k's components at 2k, 2k + 1), computed with
-    /// the reused factorization.
-    pub fn gap_hessian(&self, mesh: &TriMesh, rots: &Rots) -> Result<Vec<f64>, ParamError> {
+    /// Schur complement H restricted to the gap components `indices` (gap k's at 2k, 2k + 1),
+    /// row-major |indices|², computed with the reused factorization (one solve per index).
+    pub fn gap_hessian(
+        &self,
+        mesh: &TriMesh,
+        rots: &Rots,
+        indices: &[usize],
+    ) -> Result<Vec<f64>, ParamError> {
         let nl = self.n_loops;
         let m = 2 * nl;
-        if nl == 0 {
+        let k = indices.len();
+        if nl == 0 || k == 0 {
             return Ok(Vec::new());
+        }
+        if let Some(&i) = indices.iter().find(|&&i| i >= m) {
+            return Err(ParamError::InvalidInput(format!(
+                "gap component {i} out of range ({m})"
+            )));
         }
         // Sparse columns of Q_xW and dense Q_WW.
         let mut cols: Vec<Vec<(u32, [f64; 2])>> = vec![Vec::new(); m];
@@ -256,11 +272,16 @@ impl GlobalSystem {
             });
         }
         let nx = self.solver.n();
-        let mut h = qww;
-        for start in (0..m).step_by(32) {
-            let end = (start + 32).min(m);
-            let dense: Vec<Vec<[f64; 2]>> = (start..end)
-                .map(|j| {
+        let mut h: Vec<f64> = indices
+            .iter()
+            .flat_map(|&i| indices.iter().map(move |&j| (i, j)))
+            .map(|(i, j)| qww[i * m + j])
+            .collect();
+        for start in (0..k).step_by(32) {
+            let end = (start + 32).min(k);
+            let dense: Vec<Vec<[f64; 2]>> = indices[start..end]
+                .iter()
+                .map(|&j| {
                     let mut d = vec![[0.0; 2]; nx];
                     for &(v, x) in &cols[j] {
                         d[v as usize] = x;
@@ -271,13 +292,13 @@ impl GlobalSystem {
             let refs: Vec<&[[f64; 2]]> = dense.iter().map(|d| d.as_slice()).collect();
             let y = self.solver.solve_many(&refs)?;
             for (jj, yj) in y.iter().enumerate() {
-                let j = start + jj;
-                for (i, col) in cols.iter().enumerate() {
-                    let s: f64 = col
+                let b = start + jj;
+                for (a, &i) in indices.iter().enumerate() {
+                    let s: f64 = cols[i]
                         .iter()
                         .map(|&(v, x)| x[0] * yj[v as usize][0] + x[1] * yj[v as usize][1])
                         .sum();
-                    h[i * m + j] -= s;
+                    h[a * k + b] -= s;
                 }
             }
         }
@@ -296,7 +317,8 @@ impl GlobalSystem {
         if nl == 0 {
             return Ok(Vec::new());
         }
-        let h = self.gap_hessian(mesh, rots)?;
+        let all: Vec<usize> = (0..m).collect();
+        let h = self.gap_hessian(mesh, rots, &all)?;
         let Some(mut cov) = dense_spd_inverse(&h, m) else {
             // Not positive definite numerically: fall back to direct rounding.
             return Ok(measured.iter().map(|&p| lattice.nearest(p)).collect());

@@ -452,7 +452,10 @@ impl QuadCover {
             curves,
         )?;
         let plain = self.round_gaps(mesh, &local)?;
-        let hessian = self.global.gap_hessian(mesh, &self.rots)?;
+        // The energy's dependence on the gaps weighs the rounding of the unknowns in equations.
+        let hessian = self
+            .global
+            .gap_hessian(mesh, &self.rots, &traced.metric_gap_components())?;
         let (gaps, w) = traced.round(&local.gaps, &plain, &hessian)?;
         let uv = if traced.has_geometric() {
             constrained::solve(

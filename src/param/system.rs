@@ -69,6 +69,12 @@ impl BlockSolver {
             BlockSolver::Complex(s) => s.n(),
         }
     }
+    pub fn analysis(&self) -> &Analysis {
+        match self {
+            BlockSolver::Scalar(s) => s.analysis(),
+            BlockSolver::Complex(s) => s.analysis(),
+        }
+    }
     pub fn solve(&self, rhs: &[[f64; 2]]) -> Result<Vec<[f64; 2]>, ParamError> {
         Ok(self.solve_many(&[rhs])?.remove(0))
     }

@@ -510,6 +510,13 @@ impl Analysis {
         self.pattern.0.len() - 1
     }
 
+    /// The elimination order (position → unknown), `None` for the identity: what
+    /// [`Analysis::with_order`] takes, e.g. to order a system with a block per unknown of this
+    /// one without computing an ordering again.
+    pub fn order(&self) -> Option<Vec<usize>> {
+        self.symbolic.perm().map(|p| p.arrays().0.to_vec())
+    }
+
     /// Entries of the Cholesky factor (its memory, and a measure of the ordering's quality).
     pub fn factor_entries(&self) -> usize {
         self.symbolic.len_val()

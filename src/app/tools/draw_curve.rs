@@ -20,14 +20,16 @@
 //! a stroke skips such vertices. One finished curve is one [`Edit::AddCurve`] (file
 //! vertex indices; id one more than the largest in use), of the kind the panel's toggle says.
 
-use std::collections::{BinaryHeap, HashSet};
 use std::sync::Arc;
 
 use super::{Tool, ToolContext, ToolEvent, ToolOutput, next_overlay_revision};
 use crate::app::curves::{self, HOVERED_COLOR, LineStyle, REFUSED_COLOR, SELECTED_COLOR};
 use crate::app::picking::project;
 use crate::app::scene::Overlay;
-use crate::constraint::{Curve, CurveKind, check_path, shortest_edge_path};
+use crate::constraint::{
+    Curve, CurveKind, check_path, edge_key, path_edges, shortest_edge_path,
+    shortest_edge_path_avoiding,
+};
 use crate::edit::Edit;
 use crate::mesh::TriMesh;
 
@@ -131,14 +133,14 @@ impl DrawCurveTool {
     fn path_to(&self, mesh: &TriMesh, v: usize) -> Option<Vec<usize>> {
         let last = *self.points.last()?;
         let path = shortest_edge_path(mesh, last, v)?;
-        let used = used_edges(&self.points);
+        let used = path_edges(&self.points);
         if path
             .windows(2)
             .all(|w| !used.contains(&edge_key(w[0], w[1])))
         {
             return Some(path);
         }
-        path_avoiding(mesh, last, v, &used)
+        shortest_edge_path_avoiding(mesh, last, v, &used)
     }
 
     /// The curve in progress extended to `v` ([`DrawCurveTool::path_to`]), checked.
@@ -352,78 +354,6 @@ impl DrawCurveTool {
         self.overlay = build_overlay(mesh, &key).map(Arc::new);
         self.overlay_key = Some(key);
     }
-}
-
-/// An edge as its vertex pair, the smaller first (one edge per pair on a manifold mesh).
-fn edge_key(a: usize, b: usize) -> (usize, usize) {
-    (a.min(b), a.max(b))
-}
-
-/// The edges of an open vertex path.
-fn used_edges(path: &[usize]) -> HashSet<(usize, usize)> {
-    path.windows(2).map(|w| edge_key(w[0], w[1])).collect()
-}
-
-/// A shortest edge path (by length) from `a` to `b` over the edges not in `blocked`, both ends
-/// included; `None` when `b` cannot be reached that way.
-fn path_avoiding(
-    mesh: &TriMesh,
-    a: usize,
-    b: usize,
-    blocked: &HashSet<(usize, usize)>,
-) -> Option<Vec<usize>> {
-    #[derive(PartialEq)]
-    struct Entry(f64, usize);
-    impl Eq for Entry {}
-    impl PartialOrd for Entry {
-        fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-            Some(self.cmp(other))
-        }
-    }
-    impl Ord for Entry {
-        // reversed: the heap pops the nearest first
-        fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-            other.0.total_cmp(&self.0)
-        }
-    }
-    let n = mesh.n_vertices();
-    if a >= n || b >= n {
-        return None;
-    }
-    let mut dist = vec![f64::INFINITY; n];
-    let mut prev = vec![usize::MAX; n];
-    let mut heap = BinaryHeap::from([Entry(0.0, a)]);
-    dist[a] = 0.0;
-    while let Some(Entry(d, v)) = heap.pop() {
-        if v == b {
-            break;
-        }
-        if d > dist[v] {
-            continue;
-        }
-        for w in mesh.one_ring(v) {
-            if blocked.contains(&edge_key(v, w)) {
-                continue;
-            }
-            let nd = d + (mesh.position(w) - mesh.position(v)).length();
-            if nd < dist[w] {
-                dist[w] = nd;
-                prev[w] = v;
-                heap.push(Entry(nd, w));
-            }
-        }
-    }
-    if a != b && prev[b] == usize::MAX {
-        return None;
-    }
-    let mut path = vec![b];
-    while let Some(&v) = path.last()
-        && v != a
-    {
-        path.push(prev[v]);
-    }
-    path.reverse();
-    Some(path)
 }
 
 /// The tool's overlay: the hovered and the selected curve highlighted, the curve in progress
@@ -734,26 +664,6 @@ impl Tool for DrawCurveTool {
 mod tests {
     use super::*;
     use crate::mesh::generate;
-
-    #[test]
-    fn paths_avoid_the_blocked_edges_or_are_none() {
-        // A 4 x 4 grid: vertices row by row, 5 per row.
-        let m = generate::grid(4, 4, 1.0, 1.0);
-        let free = path_avoiding(&m, 0, 2, &HashSet::new()).unwrap();
-        assert_eq!(free, vec![0, 1, 2]);
-        let blocked = used_edges(&[2, 1]);
-        let p = path_avoiding(&m, 0, 2, &blocked).unwrap();
-        assert_eq!((p[0], *p.last().unwrap()), (0, 2));
-        assert!(check_path(&m, &p, false).is_ok());
-        assert!(
-            p.windows(2)
-                .all(|w| !blocked.contains(&edge_key(w[0], w[1])))
-        );
-        // every edge at vertex 0 blocked: unreachable
-        let around: HashSet<_> = m.one_ring(0).into_iter().map(|w| edge_key(0, w)).collect();
-        assert_eq!(path_avoiding(&m, 0, 2, &around), None);
-        assert_eq!(path_avoiding(&m, 3, 3, &around), Some(vec![3]));
-    }
 
     #[test]
     fn a_curve_turning_back_takes_a_detour_and_closes_with_two_clicks() {
