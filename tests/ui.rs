@@ -1546,8 +1546,8 @@ fn sharp_features_are_previewed_and_detected_and_boundaries_aligned() {
     assert!(h.state().error.is_none(), "{:?}", h.state().error);
 }
 
-/// A closed geometric curve around a single singularity cannot be a parameter line (the field
-/// turns by its index on the way round): the solve reports a contradiction, which is drawn red
+/// A closed combinatorial curve around a single singularity cannot close as one parameter line
+/// (the lattice turns by its index on the way round): the solve reports a contradiction, which is drawn red
 /// and shown as the notice while the last good result stays; removing the curve solves again.
 #[test]
 fn contradictory_curves_are_shown_and_the_last_good_result_stays() {
