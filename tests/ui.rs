@@ -1219,6 +1219,8 @@ fn curves_are_drawn_retyped_deleted_undone_and_saved() {
     assert_eq!((v0[0], *v0.last().unwrap()), (a, e));
     assert!(v0.contains(&b));
     check_path(&mesh, &v0, false).expect("an edge path");
+    // Curve edits are applied in the solve job (they may design the field again).
+    settle(&mut h);
     assert_eq!(curves(&h)[&0].vertices, v0);
     assert_eq!(h.state().camera, camera, "clicks orbited the camera");
     settle(&mut h);
@@ -1249,7 +1251,7 @@ fn curves_are_drawn_retyped_deleted_undone_and_saved() {
     assert!(v1.contains(&f) && v1.contains(&g));
     check_path(&mesh, &v1, true).expect("a closed edge path");
     assert_eq!(h.state().tool.selected_curve(), Some(1));
-    h.step(); // the side panel is drawn before the viewport: it shows the new curve next frame
+    settle(&mut h);
     h.get_by_label(&format!(
         "Curve 1: geometric, drawn, {} vertices, closed",
         v1.len()
@@ -1325,6 +1327,7 @@ fn curves_are_drawn_retyped_deleted_undone_and_saved() {
         h.state().document.applied_edits().last(),
         Some(&Edit::RemoveCurve { id: 0 })
     );
+    settle(&mut h);
     assert_eq!(curves(&h).keys().copied().collect::<Vec<_>>(), vec![1]);
     assert_eq!(h.state().tool.selected_curve(), None);
 
@@ -1371,6 +1374,8 @@ fn curves_are_drawn_retyped_deleted_undone_and_saved() {
     assert_eq!((id2, closed), (2, false));
     assert_eq!((v2[0], *v2.last().unwrap()), (s0, s1));
     check_path(&mesh, &v2, false).expect("a stroke snapped to an edge path");
+    // The next curve waits for the job that applies this one.
+    settle(&mut h);
 
     // a double click finishes an open curve (two clicks in one frame)
     let (t0, pt0) = at(&h, -100.0, 200.0);
@@ -1462,6 +1467,7 @@ fn sharp_features_are_previewed_and_detected_and_boundaries_aligned() {
         h.state().document.applied_edits(),
         &[Edit::DetectFeatures { angle_deg: 35.0 }]
     );
+    settle(&mut h);
     let found = curves(&h);
     assert!(!found.is_empty(), "no feature curves");
     let feature_set: std::collections::HashSet<usize> = expected.iter().copied().collect();
@@ -1519,6 +1525,7 @@ fn sharp_features_are_previewed_and_detected_and_boundaries_aligned() {
         h.state().document.applied_edits(),
         &[Edit::AlignBoundary { on: true }]
     );
+    settle(&mut h);
     let boundary = curves(&h);
     assert!(!boundary.is_empty(), "no boundary curves");
     let mesh = h.state().document.mesh.clone().unwrap();
@@ -1541,8 +1548,8 @@ fn sharp_features_are_previewed_and_detected_and_boundaries_aligned() {
         h.state().document.applied_edits().last(),
         Some(&Edit::AlignBoundary { on: false })
     );
-    assert!(curves(&h).is_empty());
     settle(&mut h);
+    assert!(curves(&h).is_empty());
     assert!(h.state().error.is_none(), "{:?}", h.state().error);
 }
 
@@ -1581,6 +1588,10 @@ fn contradictory_curves_are_shown_and_the_last_good_result_stays() {
         }
     };
     h.state_mut().commit_edit(edit);
+    assert!(
+        h.state().document.current_state().is_none(),
+        "a curve edit was applied on the UI thread (it may design the field: the job does it)"
+    );
     settle(&mut h);
     assert!(h.state().error.is_none(), "{:?}", h.state().error);
     let error = h

@@ -90,10 +90,26 @@ impl EditorApp {
     }
 
     /// Takes an edit a tool (or a button) committed: moves are applied here (a Dijkstra, so a
-    /// refusal shows at once), relax in the solve job; then the re-solve is scheduled.
+    /// refusal shows at once), relax and curve edits (which may design the field again) in the
+    /// solve job; then the re-solve is scheduled.
     pub fn commit_edit(&mut self, edit: Edit) {
         let applied = match &edit {
             Edit::Relax => None,
+            // Curve edits may design the field again (a second on large meshes): checked here,
+            // so a broken curve is refused at once, and applied in the solve job.
+            Edit::AddCurve { .. }
+            | Edit::RemoveCurve { .. }
+            | Edit::SetCurveKind { .. }
+            | Edit::DetectFeatures { .. }
+            | Edit::AlignBoundary { .. } => {
+                if let Some(base) = self.document.edit_base.as_ref()
+                    && let Err(why) = base.check_edit(&edit)
+                {
+                    self.notice = Some(format!("{}: {why}", edit.label()));
+                    return;
+                }
+                None
+            }
             _ => {
                 let Some((base, state)) = self.document.editable() else {
                     self.notice = Some(format!(

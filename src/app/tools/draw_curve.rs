@@ -328,8 +328,10 @@ impl DrawCurveTool {
     /// has not seen it yet) and rebuilds the overlay when what it shows changed.
     fn sync(&mut self, cx: &ToolContext, committing: bool) {
         let curves = cx.document.curves();
-        if let (Some(id), Some(c)) = (self.selected, curves)
-            && !c.contains_key(&id)
+        // Only the current state decides: while the job applies a just committed curve, the
+        // state shown is the one before it.
+        if let (Some(id), Some(state)) = (self.selected, cx.document.current_state())
+            && !state.curves.contains_key(&id)
             && !committing
         {
             self.selected = None;
