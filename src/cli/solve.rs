@@ -67,6 +67,10 @@ pub struct SolveArgs {
     /// Refuse singularity merges that would create index ±2/4 (hanging nodes; N = 4).
     #[arg(long)]
     pub no_half_merges: bool,
+    /// Keep the folds the global step leaves (no injectivity repair; REPORT.json still counts
+    /// them).
+    #[arg(long)]
+    pub no_untangle: bool,
     /// `relax` edits merge singularities closer than this many grid cells [default: 1].
     #[arg(long)]
     pub relax_merge_within: Option<f64>,
@@ -115,6 +119,8 @@ struct TimingsOut {
     local: f64,
     cut: f64,
     global: f64,
+    /// The injectivity repair (part of neither `global` nor `remesh`).
+    repair: f64,
     remesh: f64,
     total: f64,
 }
@@ -137,6 +143,13 @@ struct Report {
     singularities: Vec<SingularityOut>,
     cut_paths: usize,
     flipped_faces: usize,
+    /// Folded faces the global step left, before the injectivity repair.
+    flipped_faces_before_repair: usize,
+    /// Time of the repair (also in `timings_ms.repair`).
+    repair_ms: f64,
+    /// Gaps the repair rounded again (their first rounding put two branch points on one
+    /// lattice point): cut path index, old and new value.
+    rerounded_gaps: Vec<param::Rerounded>,
     /// What the local step removed from the guiding field (thesis sec. 3.3), in grid cells.
     curl: f64,
     seam_max_error: f64,
@@ -223,6 +236,9 @@ fn settings_from(args: &SolveArgs, base: Option<&Settings>) -> Result<Settings, 
     }
     if let Some(m) = args.relax_merge_within {
         s.relax_merge_within = m;
+    }
+    if args.no_untangle {
+        s.no_untangle = true;
     }
     s.validate().map_err(|e| -> CliError {
         match (&args.project, base) {
@@ -439,9 +455,14 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     timings.cut = p.timings.cut_ms;
     timings.local = p.timings.local_ms;
     timings.global = p.timings.global_ms;
+    timings.repair = p.timings.repair_ms;
     bar.line(format!("  {:<10} {:9.1} ms", "cut", timings.cut));
     bar.line(format!("  {:<10} {:9.1} ms", "local", timings.local));
     bar.line(format!("  {:<10} {:9.1} ms", "global", timings.global));
+    bar.line(format!(
+        "  {:<10} {:9.1} ms ({} folded faces before)",
+        "repair", timings.repair, p.flipped_faces_before_repair
+    ));
 
     // Back to the file's vertex and face order.
     bar.start("write");
@@ -531,6 +552,9 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 .collect(),
             cut_paths: p.cut_paths.len(),
             flipped_faces: p.flipped_faces,
+            flipped_faces_before_repair: p.flipped_faces_before_repair,
+            repair_ms: p.timings.repair_ms,
+            rerounded_gaps: p.rerounded_gaps.clone(),
             curl: p.curl,
             seam_max_error: p.seam_max_error,
             curves: p

@@ -44,6 +44,8 @@ pub struct Settings {
     pub no_half_merges: bool,
     /// `relax` merges singularities closer than this many grid cells.
     pub relax_merge_within: f64,
+    /// Keep the folds of the global step (no injectivity repair).
+    pub no_untangle: bool,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -69,6 +71,7 @@ impl Default for Settings {
             rounding: RoundingSetting::Direct,
             no_half_merges: false,
             relax_merge_within: 1.0,
+            no_untangle: false,
         }
     }
 }
@@ -147,6 +150,7 @@ impl Settings {
                 RoundingSetting::Greedy => Rounding::Greedy,
             },
             pure_quad: self.pure_quad,
+            no_untangle: self.no_untangle,
         }
     }
 }

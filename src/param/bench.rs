@@ -46,6 +46,7 @@ pub fn bench_param(
         opts: ParamOptions {
             rounding: Rounding::Greedy,
             pure_quad: false,
+            no_untangle: false,
         },
         ..qc
     };

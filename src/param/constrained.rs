@@ -18,6 +18,7 @@ use super::constraints::VertexFix;
 use super::cut::{CutGraph, NONE};
 use super::global::{GlobalSystem, stiffness};
 use super::rot::{M2, Rots, apply, mul, transpose};
+use super::untangle::MapSpace;
 use crate::mesh::TriMesh;
 use crate::sparse::{Analysis, SparseBuilder, SpdSolver};
 
@@ -31,7 +32,7 @@ pub(crate) fn solve(
     disk: &[[DVec3; 2]],
     w: &[[f64; 2]],
     fixes: &BTreeMap<usize, VertexFix>,
-) -> Result<Vec<[f64; 2]>, ParamError> {
+) -> Result<(Vec<[f64; 2]>, MapSpace), ParamError> {
     let nv = mesh.n_vertices();
     let mut fixes = fixes.clone();
     pin_translations(mesh, cut, global, &mut fixes);
@@ -126,7 +127,7 @@ pub(crate) fn solve(
         None => Analysis::new(&matrix)?,
     };
     let y = SpdSolver::with_analysis(analysis, &matrix)?.solve(&rhs)?;
-    Ok((0..3 * mesh.n_faces())
+    let uv = (0..3 * mesh.n_faces())
         .map(|c| {
             let mut p = consts[c];
             if let Some(v) = var_of(c) {
@@ -137,7 +138,20 @@ pub(crate) fn solve(
             }
             p
         })
-        .collect())
+        .collect();
+    // The maps the repair may move within: the same unknowns, the fixed components held.
+    let space = MapSpace {
+        var: (0..3 * mesh.n_faces())
+            .map(|c| var_of(c).map_or(NONE, |v| v as u32))
+            .collect(),
+        consts,
+        rot: global.corner_rot.clone(),
+        basis: q,
+        free: (0..nv)
+            .map(|v| [fixed[2 * v].is_none(), fixed[2 * v + 1].is_none()])
+            .collect(),
+    };
+    Ok((uv, space))
 }
 
 /// Replaces the unconstrained step's pins (one vertex per translation-invariant component)

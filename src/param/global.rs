@@ -11,6 +11,7 @@ use super::ParamError;
 use super::cut::{CutGraph, NONE, step};
 use super::rot::{Aff, ID, Lattice, Lin, M2, Rots, apply, inverse, mul, sub, transpose};
 use super::system::{BlockBuilder, BlockSolver};
+use super::untangle::MapSpace;
 use crate::sparse::{Analysis, SparseBuilder};
 
 pub(crate) struct GlobalSystem {
@@ -120,6 +121,18 @@ impl GlobalSystem {
             n_loops: cut.generators.len(),
             solver: b.factor(analysis)?,
         })
+    }
+
+    /// The seamless maps this system describes with the gaps `w` fixed (what the injectivity
+    /// repair moves within): ψ_c = c_c + R^{rot_c} x_v.
+    pub fn map_space(&self, n_vertices: usize, w: &[[f64; 2]]) -> MapSpace {
+        MapSpace {
+            consts: self.corner_lin.iter().map(|l| l.eval(w)).collect(),
+            var: self.corner_var.clone(),
+            rot: self.corner_rot.clone(),
+            basis: vec![ID; n_vertices],
+            free: vec![[true, true]; n_vertices],
+        }
     }
 
     /// The factored system's analysis (its pattern is the mesh's vertex adjacency).

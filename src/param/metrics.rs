@@ -55,15 +55,17 @@ pub(crate) struct Quality {
     pub area_distortion: f64,
 }
 
-/// Over the valid faces (det J > 0, σ_min > 0; flipped and degenerate faces are counted in
-/// `flipped`): conformal distortion σ_max/σ_min (area-weighted mean, 99th percentile over faces);
+/// `flipped`: faces whose texture triangle has non-positive signed area. Over the valid faces
+/// (det J > 0, σ_min > 0): conformal distortion σ_max/σ_min (area-weighted mean, 99th percentile over faces);
 /// area distortion = area-weighted mean of max(r, 1/r), r = det J / (area-weighted mean |det J|).
 /// Per-face values enter the means capped at 1000 (near-degenerate images would dominate).
 pub(crate) fn quality(mesh: &TriMesh, uv: &[[f64; 2]]) -> Quality {
     let j = jacobians(mesh, uv);
     let areas: Vec<f64> = (0..mesh.n_faces()).map(|f| mesh.face_area(f)).collect();
     let total: f64 = areas.iter().sum::<f64>().max(f64::MIN_POSITIVE);
-    let flipped = j.iter().filter(|x| x.0.is_nan() || x.0 <= 0.0).count();
+    // Folds by the texture triangle's own orientation: a zero-area input face with a proper
+    // image is not one.
+    let flipped = super::untangle::folded(uv).len();
     // Distortion over the valid (non-flipped, non-degenerate) faces; flips are counted apart.
     let valid: Vec<bool> = j.iter().map(|x| x.0 > 0.0 && x.2 > 0.0).collect();
     let vtotal: f64 = areas

@@ -31,6 +31,7 @@ mod local;
 mod metrics;
 mod rot;
 mod system;
+mod untangle;
 
 pub mod pipeline;
 
@@ -83,6 +84,8 @@ pub struct ParamOptions {
     pub rounding: Rounding,
     /// Gaps in 2Z² (N = 2, 4) so that singularities land on Z² (end of sec. 2.4.5).
     pub pure_quad: bool,
+    /// Skip the injectivity repair after the global step (`untangle`): folds stay.
+    pub no_untangle: bool,
 }
 
 /// A frame field as QuadCover consumes it (see `FrameField` in docs/CONTRACTS.md): per face the
@@ -99,6 +102,18 @@ pub struct StageTimings {
     pub cut_ms: f64,
     pub local_ms: f64,
     pub global_ms: f64,
+    /// The injectivity repair (0 when nothing was folded or it is off).
+    pub repair_ms: f64,
+}
+
+/// A gap the injectivity repair rounded again (its first rounding collapsed cells: two
+/// branch points on one lattice point).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Rerounded {
+    /// Index of the cut path (as in [`Parameterization::gaps`]).
+    pub path: usize,
+    pub from: [f64; 2],
+    pub to: [f64; 2],
 }
 
 /// Transition across an interior edge: uv_j = R^rotation uv_i + translation.
@@ -171,7 +186,12 @@ pub struct Parameterization {
     pub gaps: Vec<[f64; 2]>,
     /// Per edge (identity on boundary edges and away from the cut graph).
     pub transitions: Vec<EdgeTransition>,
+    /// Faces whose texture triangle has non-positive signed area, after the repair.
     pub flipped_faces: usize,
+    /// The same before the injectivity repair (equal to `flipped_faces` when it is off).
+    pub flipped_faces_before_repair: usize,
+    /// Gaps the repair rounded again because their first rounding made folds unavoidable.
+    pub rerounded_gaps: Vec<Rerounded>,
     /// The curl of the guiding field: what the local step removes, Σ_f A_f ‖X_f − X*_f‖² over
     /// both frame rows (X* the curl*-free frames), in grid cells (thesis sec. 3.3 measures
     /// singularity placement by it).
@@ -222,6 +242,9 @@ pub struct QuadCover {
     opts: ParamOptions,
     pub timings: StageTimings,
 }
+
+/// Gaps tried per round when the rounding made folds unavoidable ([`QuadCover::reround`]).
+const REROUND_GAPS: usize = 8;
 
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
@@ -303,6 +326,7 @@ impl QuadCover {
                 cut_ms,
                 local_ms,
                 global_ms,
+                repair_ms: 0.0,
             },
         })
     }
@@ -406,14 +430,26 @@ impl QuadCover {
         let local = self.local_step(mesh, frames)?;
         let t = Instant::now();
         let gaps = self.round_gaps(mesh, &local)?;
-        let uv = self.global_uv(mesh, &local, &gaps)?;
+        let mut uv = self.global_uv(mesh, &local, &gaps)?;
         let global_ms = ms(t);
+        let space = self.global.map_space(mesh.n_vertices(), &gaps);
+        let mut repair = self.untangle(mesh, &local, &space, &mut uv);
+        let mut gaps = gaps;
+        let mut rerounded = Vec::new();
+        if !repair.stuck.is_empty() {
+            let t = Instant::now();
+            rerounded = self.reround(mesh, &local, &mut gaps, &mut uv, &mut repair)?;
+            repair.ms += ms(t);
+        }
         let mut p = self.finish(mesh, frames, uv, local.gaps.clone(), gaps);
         p.curl = local.curl(mesh, frames);
+        p.flipped_faces_before_repair = repair.before;
+        p.rerounded_gaps = rerounded;
         p.timings = StageTimings {
             cut_ms: self.timings.cut_ms,
             local_ms: self.timings.local_ms + local.local_ms,
             global_ms: self.timings.global_ms + global_ms,
+            repair_ms: repair.ms,
         };
         Ok(p)
     }
@@ -457,7 +493,7 @@ impl QuadCover {
             .global
             .gap_hessian(mesh, &self.rots, &traced.metric_gap_components())?;
         let (gaps, w) = traced.round(&local.gaps, &plain, &hessian)?;
-        let uv = if traced.has_geometric() {
+        let (mut uv, space) = if traced.has_geometric() {
             constrained::solve(
                 mesh,
                 &self.cut,
@@ -468,19 +504,134 @@ impl QuadCover {
                 &traced.fixes(&w),
             )?
         } else {
-            self.global_uv(mesh, &local, &gaps)?
+            let uv = self.global_uv(mesh, &local, &gaps)?;
+            (uv, self.global.map_space(mesh.n_vertices(), &gaps))
         };
         let global_ms = ms(t);
+        // The repair holds the curves' fixed components: the fits below still hold exactly.
+        let repair = self.untangle(mesh, &local, &space, &mut uv);
         let fits = traced.fits(&self.rots, &uv, &w);
         let mut p = self.finish(mesh, frames, uv, local.gaps.clone(), gaps);
         p.curl = local.curl(mesh, frames);
         p.curves = fits;
+        p.flipped_faces_before_repair = repair.before;
         p.timings = StageTimings {
             cut_ms: self.timings.cut_ms,
             local_ms: self.timings.local_ms + local.local_ms,
             global_ms: self.timings.global_ms + global_ms,
+            repair_ms: repair.ms,
         };
         Ok(p)
+    }
+
+    /// Folds no motion of the vertices can undo (two branch points rounded onto one lattice
+    /// point): the gaps their held corners depend on are moved by one lattice step, one at a
+    /// time, keeping a change when the repaired map has fewer folds (ties: the smaller
+    /// rounding error). At most [`REROUND_GAPS`] gaps are tried, in rounds until nothing is
+    /// stuck or nothing helps. Returns the changed gaps.
+    fn reround(
+        &self,
+        mesh: &TriMesh,
+        local: &LocalSolution,
+        gaps: &mut Vec<[f64; 2]>,
+        uv: &mut Vec<[f64; 2]>,
+        repair: &mut untangle::Repair,
+    ) -> Result<Vec<Rerounded>, ParamError> {
+        let first = gaps.clone();
+        for _ in 0..3 {
+            if repair.stuck.is_empty() {
+                break;
+            }
+            let mut candidates: Vec<usize> = repair
+                .stuck
+                .iter()
+                .flat_map(|&f| {
+                    // The stuck face's corners and those of its neighbours (the other held
+                    // corner may sit across an edge).
+                    let mut c: Vec<usize> = (3 * f..3 * f + 3).collect();
+                    for h in 3 * f..3 * f + 3 {
+                        if let Some(t) = mesh.twin(h) {
+                            c.push(mesh.prev(t));
+                        }
+                    }
+                    c
+                })
+                .filter(|&c| self.global.corner_var[c] == cut::NONE)
+                .flat_map(|c| self.global.corner_lin[c].0.iter().map(|x| x.0 as usize))
+                .collect();
+            candidates.sort_unstable();
+            candidates.dedup();
+            candidates.truncate(REROUND_GAPS);
+            let error = |g: &[[f64; 2]]| -> f64 {
+                g.iter()
+                    .zip(&local.gaps)
+                    .map(|(a, b)| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2))
+                    .sum()
+            };
+            // Candidates are compared before their repair (stuck faces, then folds, then the
+            // rounding error); only the best one is repaired.
+            let stuck_now = repair.stuck.len();
+            // (stuck, folds, rounding error), gaps, map.
+            type Candidate = ((usize, usize, f64), Vec<[f64; 2]>, Vec<[f64; 2]>);
+            let mut best: Option<Candidate> = None;
+            for &k in &candidates {
+                for d in self.lattice.steps() {
+                    let mut g = gaps.clone();
+                    g[k] = [g[k][0] + d[0], g[k][1] + d[1]];
+                    let u = self.global_uv(mesh, local, &g)?;
+                    let space = self.global.map_space(mesh.n_vertices(), &g);
+                    let (stuck, folds) = untangle::count_stuck(mesh, &space, &u);
+                    let key = (stuck, folds, error(&g));
+                    let better = match &best {
+                        None => stuck < stuck_now,
+                        Some((b, _, _)) => key.partial_cmp(b) == Some(std::cmp::Ordering::Less),
+                    };
+                    if better {
+                        best = Some((key, g, u));
+                    }
+                }
+            }
+            let Some((_, g, mut u)) = best else { break };
+            let space = self.global.map_space(mesh.n_vertices(), &g);
+            let r = self.untangle(mesh, local, &space, &mut u);
+            // Kept only if the repaired map has fewer folds than the current one.
+            if untangle::folded(&u).len() >= untangle::folded(uv).len() {
+                break;
+            }
+            *gaps = g;
+            *uv = u;
+            *repair = untangle::Repair {
+                before: repair.before,
+                ms: repair.ms,
+                ..r
+            };
+        }
+        Ok((0..gaps.len())
+            .filter(|&k| gaps[k] != first[k])
+            .map(|k| Rerounded {
+                path: k,
+                from: first[k],
+                to: gaps[k],
+            })
+            .collect())
+    }
+
+    /// The injectivity repair ([`untangle`]) unless it is off; counts the folds either way.
+    fn untangle(
+        &self,
+        mesh: &TriMesh,
+        local: &LocalSolution,
+        space: &untangle::MapSpace,
+        uv: &mut [[f64; 2]],
+    ) -> untangle::Repair {
+        if self.opts.no_untangle {
+            let n = untangle::folded(uv).len();
+            return untangle::Repair {
+                before: n,
+                ..Default::default()
+            };
+        }
+        untangle::repair(mesh, &self.rots, space, &local.disk, uv)
     }
 
     fn finish(
@@ -526,6 +677,8 @@ impl QuadCover {
                 })
                 .collect(),
             flipped_faces: q.flipped,
+            flipped_faces_before_repair: q.flipped,
+            rerounded_gaps: Vec::new(),
             curl: 0.0,
             seam_max_error,
             curves: Vec::new(),
@@ -563,6 +716,12 @@ pub fn curl(
     let local = LocalSystem::new(mesh, &cut, &rots, analysis.map(|a| &a.local))?;
     let curl_free = local.solve(mesh, &cut, &rots, frames)?;
     Ok(removed(mesh, frames, &curl_free))
+}
+
+/// Faces whose texture triangle (corners 3f, 3f + 1, 3f + 2 of `uv`) has non-positive or
+/// undefined signed area: the folds ([`Parameterization::flipped_faces`] counts them).
+pub fn folded_faces(uv: &[[f64; 2]]) -> Vec<usize> {
+    untangle::folded(uv)
 }
 
 /// One-shot QuadCover: prepare and solve.

@@ -181,6 +181,19 @@ impl Lattice {
             }
         }
     }
+    /// The shortest non-zero lattice vectors (the neighbours of 0).
+    pub fn steps(self) -> Vec<[f64; 2]> {
+        match self {
+            Lattice::Z2 => vec![[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]],
+            Lattice::TwoZ2 => vec![[2.0, 0.0], [-2.0, 0.0], [0.0, 2.0], [0.0, -2.0]],
+            Lattice::G6 => (0..6)
+                .map(|k| {
+                    let a = std::f64::consts::FRAC_PI_3 * k as f64;
+                    [a.cos(), a.sin()]
+                })
+                .collect(),
+        }
+    }
     pub fn distance(self, p: [f64; 2]) -> f64 {
         let q = self.nearest(p);
         (q[0] - p[0]).hypot(q[1] - p[1])
