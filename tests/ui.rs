@@ -1701,3 +1701,203 @@ fn a_contradiction_outcome_is_a_failed_solve_with_red_curves() {
         "no curves left to draw"
     );
 }
+
+// ---- folds: the overlay and the injectivity repair setting ------------------------------------
+
+/// The panel's count of folded faces.
+fn folded_count(n: usize) -> String {
+    match n {
+        0 => "No folded faces".to_string(),
+        1 => "1 folded face".to_string(),
+        n => format!("{n} folded faces"),
+    }
+}
+
+/// Pixels of the fold overlay's colour ([`FOLD_COLOR`], sRGB-encoded in the render).
+fn fold_pixels(img: &image::RgbaImage) -> usize {
+    img.pixels()
+        .filter(|p| p[0] > 220 && p[1] < 40 && (100..=175).contains(&p[2]))
+        .count()
+}
+
+/// The *Folds* toggle: the count of the map shown (with the repair's before count) in the
+/// panel, the faces of [`quadcover::param::folded_faces`] outlined in the viewport; a new map
+/// with folds (injected: mirrored texture triangles) shows its count and is drawn.
+#[test]
+fn the_folds_overlay_counts_and_draws_the_folded_faces() {
+    use quadcover::app::folds::FOLD_COLOR;
+    use quadcover::param::folded_faces;
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness_with(
+        &dir.path().join("recent.txt"),
+        Some(shared_mesh("spot.obj")),
+        true,
+    );
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    assert!(!h.state().document.display.show_folds, "off by default");
+    assert!(h.query_by_label_contains("folded face").is_none());
+    assert!(h.state_mut().folds_overlay().is_none());
+
+    let p = h.state().document.parameterization.clone().unwrap();
+    let folded = folded_faces(&p.uv);
+    assert_eq!(
+        folded.len(),
+        p.flipped_faces,
+        "the core counts the same folds"
+    );
+    let before = p.flipped_faces_before_repair;
+    h.get_by_label("Folds").click();
+    h.run_steps(2);
+    assert!(h.state().document.display.show_folds);
+    h.get_by_label(&match before {
+        0 => folded_count(folded.len()),
+        b => format!("{} ({b} before repair)", folded_count(folded.len())),
+    });
+    assert_eq!(
+        h.state_mut().folds_overlay().map(|o| o.thick_lines.len()),
+        (!folded.is_empty()).then_some(3 * folded.len())
+    );
+
+    // a map with folds: every 9th face's texture triangle mirrored
+    let mut q = p.clone();
+    let mut mirrored = Vec::new();
+    for f in (0..q.uv.len() / 3).step_by(9) {
+        if !folded.contains(&f) {
+            q.uv.swap(3 * f + 1, 3 * f + 2);
+            mirrored.push(f);
+        }
+    }
+    let expected: Vec<usize> = {
+        let mut e: Vec<usize> = folded.iter().copied().chain(mirrored).collect();
+        e.sort_unstable();
+        e
+    };
+    assert!(expected.len() > 100, "{} folds", expected.len());
+    q.flipped_faces = expected.len();
+    q.flipped_faces_before_repair = expected.len() + 5;
+    h.state_mut().document.set_parameterization(q, true);
+    h.run_steps(2);
+    let folds = h
+        .state()
+        .document
+        .folds
+        .clone()
+        .expect("the folds of the map");
+    assert_eq!(folds.faces, expected);
+    h.get_by_label(&format!(
+        "{} folded faces ({} before repair)",
+        expected.len(),
+        expected.len() + 5
+    ));
+    h.get_by_label_contains(&format!(
+        "{} flipped faces ({} before repair, repair",
+        expected.len(),
+        expected.len() + 5
+    ));
+    let overlay = h.state_mut().folds_overlay().expect("the folds are drawn");
+    assert_eq!(overlay.thick_lines.len(), 3 * expected.len());
+    assert!(overlay.thick_lines.iter().all(|l| l.color == FOLD_COLOR));
+    // built once per result: the next frames reuse it
+    h.run_steps(2);
+    let again = h.state_mut().folds_overlay().unwrap();
+    assert!(Arc::ptr_eq(&overlay, &again));
+    if gpu_available() {
+        let on = fold_pixels(&h.render().expect("render"));
+        save_render(&mut h, "ui_folds.png");
+        h.get_by_label("Folds").click();
+        h.run_steps(2);
+        assert!(h.query_by_label_contains("folded face").is_none());
+        assert!(h.state_mut().folds_overlay().is_none());
+        let off = fold_pixels(&h.render().expect("render"));
+        assert!(on > 200 && off < on / 20, "fold pixels: {on} on, {off} off");
+    }
+}
+
+/// *Untangle folds* is `!no_untangle` of the solve settings: unchecking it and applying re-solves
+/// without the repair (the folds are the global step's and the summary says so); checking it
+/// again repairs them, and the summary gives the count before the repair and its time.
+#[test]
+fn untangle_folds_is_a_solve_setting() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness_with(
+        &dir.path().join("recent.txt"),
+        Some(shared_mesh("spot.obj")),
+        true,
+    );
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    assert!(!h.state().document.settings.no_untangle);
+    let revision = h.state().document.edit_revision();
+
+    h.get_by_label("Untangle folds").click();
+    h.run_steps(2);
+    assert!(h.state().settings_draft.no_untangle);
+    assert!(!h.state().document.settings.no_untangle, "not applied yet");
+    h.get_by_label("Settings changed: apply to recompute");
+    h.get_by_label("Apply settings").click();
+    h.step();
+    assert!(h.state().document.settings.no_untangle);
+    assert!(h.state().document.edit_revision() > revision);
+    assert!(
+        h.state().jobs.iter().any(|j| j.revision.is_some()),
+        "a solve runs"
+    );
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    assert!(h.state().document.solve_current());
+    let base = h.state().document.edit_base.clone().unwrap();
+    assert!(base.settings().no_untangle);
+    let p = h.state().document.parameterization.clone().unwrap();
+    assert_eq!(p.flipped_faces, p.flipped_faces_before_repair, "no repair");
+    assert_eq!(p.timings.repair_ms, 0.0);
+    let unrepaired = p.flipped_faces;
+    let folds = h.state().document.folds.clone().unwrap();
+    assert_eq!(folds.faces.len(), unrepaired);
+    h.get_by_label_contains(&format!("{unrepaired} flipped faces (untangling off)"));
+    h.get_by_label("Folds").click();
+    h.run_steps(2);
+    h.get_by_label(&format!("{} (untangling off)", folded_count(unrepaired)));
+    assert_eq!(
+        h.state_mut().folds_overlay().map(|o| o.thick_lines.len()),
+        (unrepaired > 0).then_some(3 * unrepaired)
+    );
+    save_render(&mut h, "ui_folds_unrepaired.png");
+
+    // on again: the same global step, repaired
+    h.get_by_label("Untangle folds").click();
+    h.run_steps(2);
+    assert!(!h.state().settings_draft.no_untangle);
+    h.get_by_label("Apply settings").click();
+    h.step();
+    assert!(!h.state().document.settings.no_untangle);
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    assert!(
+        !h.state()
+            .document
+            .edit_base
+            .as_ref()
+            .unwrap()
+            .settings()
+            .no_untangle
+    );
+    let p = h.state().document.parameterization.clone().unwrap();
+    assert_eq!(p.flipped_faces_before_repair, unrepaired);
+    assert!(p.flipped_faces <= unrepaired);
+    let folds = h.state().document.folds.clone().unwrap();
+    assert_eq!(folds.faces.len(), p.flipped_faces);
+    assert!(!h.state().document.param_summary.contains("untangling off"));
+    if unrepaired > 0 {
+        h.get_by_label_contains(&format!(
+            "{} flipped faces ({unrepaired} before repair, repair",
+            p.flipped_faces
+        ));
+        h.get_by_label(&format!(
+            "{} ({unrepaired} before repair)",
+            folded_count(p.flipped_faces)
+        ));
+    } else {
+        eprintln!("spot's global step left no folds: the repair had nothing to do");
+    }
+}

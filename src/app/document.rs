@@ -70,6 +70,50 @@ pub struct ParamDisplay {
     pub corner_uvs: Vec<[f64; 2]>,
 }
 
+/// Whether the injectivity repair ran on the map shown.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FoldRepair {
+    /// It ran (a no-op without folds): `before` folded faces before it, `ms` its time.
+    Ran { before: usize, ms: f64 },
+    /// It was off (`Settings::no_untangle`): the folds are the global step's.
+    Off,
+    /// Not a QuadCover result (synthetic UVs).
+    None,
+}
+
+/// The folded faces of the map shown ([`crate::param::folded_faces`] of its UVs), found once
+/// per result (the overlay and the panel's count read them).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Folds {
+    /// Faces whose texture triangle has non-positive signed area.
+    pub faces: Vec<usize>,
+    pub repair: FoldRepair,
+}
+
+impl Folds {
+    pub fn new(uv: &[[f64; 2]], repair: FoldRepair) -> Folds {
+        Folds {
+            faces: crate::param::folded_faces(uv),
+            repair,
+        }
+    }
+
+    /// The panel's line: "N folded faces (M before repair)", "No folded faces", ….
+    pub fn summary(&self) -> String {
+        let n = self.faces.len();
+        let count = match n {
+            0 => "No folded faces".to_string(),
+            1 => "1 folded face".to_string(),
+            n => format!("{n} folded faces"),
+        };
+        match self.repair {
+            FoldRepair::Ran { before: 0, .. } | FoldRepair::None => count,
+            FoldRepair::Ran { before, .. } => format!("{count} ({before} before repair)"),
+            FoldRepair::Off => format!("{count} (untangling off)"),
+        }
+    }
+}
+
 /// Kinds of overlay polylines.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LineKind {
@@ -357,6 +401,8 @@ pub struct Document {
     pub warnings: Vec<String>,
     pub field: Option<FieldDisplay>,
     pub param: Option<ParamDisplay>,
+    /// The folded faces of `param` (`None` without one); a new `Arc` per result.
+    pub folds: Option<Arc<Folds>>,
     /// The core field the display form came from (input of the parameterization).
     pub frame_field: Option<crate::field::FrameField>,
     /// The core parameterization result.
@@ -417,6 +463,7 @@ impl Default for Document {
             warnings: Vec::new(),
             field: None,
             param: None,
+            folds: None,
             frame_field: None,
             parameterization: None,
             param_analysis: None,
@@ -460,6 +507,7 @@ impl Document {
         self.warnings = loaded.warnings;
         self.field = None;
         self.param = None;
+        self.folds = None;
         self.frame_field = None;
         self.parameterization = None;
         self.param_analysis = None;
@@ -730,10 +778,14 @@ impl Document {
             timings: solved.timings,
         });
         self.param_analysis = self.edit_base.as_ref().map(|b| b.analysis().clone());
+        let untangle = self
+            .edit_base
+            .as_ref()
+            .is_none_or(|b| !b.settings().no_untangle);
         self.frame_field = Some(solved.field);
         self.field = Some(display);
         self.shown_state = state;
-        self.set_parameterization(p);
+        self.set_parameterization(p, untangle);
     }
 
     /// The project for saving to `project_path`: the mesh relative to it, its hash, the
@@ -818,13 +870,15 @@ impl Document {
         self.frame_field = Some(result.field);
         self.parameterization = None;
         self.param = None;
+        self.folds = None;
         self.param_summary.clear();
         self.lines.retain(|(k, _)| *k != LineKind::CutGraph);
         self.set_field(Some(display));
     }
 
-    /// Takes a computed parameterization: UVs, cut graph overlay, summary.
-    pub fn set_parameterization(&mut self, p: crate::param::Parameterization) {
+    /// Takes a computed parameterization: UVs, cut graph overlay, folded faces, summary.
+    /// `untangle`: whether it was solved with the injectivity repair on.
+    pub fn set_parameterization(&mut self, p: crate::param::Parameterization, untangle: bool) {
         let mut segs = Vec::new();
         if let Some(mesh) = &self.mesh {
             for path in &p.cut_paths {
@@ -835,14 +889,30 @@ impl Document {
                 }
             }
         }
+        let repair = if untangle {
+            FoldRepair::Ran {
+                before: p.flipped_faces_before_repair,
+                ms: p.timings.repair_ms,
+            }
+        } else {
+            FoldRepair::Off
+        };
+        let repair_note = match repair {
+            FoldRepair::Ran { before, ms } if before > 0 => {
+                format!(" ({before} before repair, repair {ms:.0} ms)")
+            }
+            FoldRepair::Off => " (untangling off)".to_string(),
+            _ => String::new(),
+        };
         self.param_summary = format!(
-            "{} cut paths, {} flipped faces, seam error {:.1e}, conformal distortion {:.3}, curl {:.3}",
+            "{} cut paths, {} flipped faces{repair_note}, seam error {:.1e}, conformal distortion {:.3}, curl {:.3}",
             p.cut_paths.len(),
             p.flipped_faces,
             p.seam_max_error,
             p.conformal_distortion.mean,
             p.curl
         );
+        self.folds = Some(Arc::new(Folds::new(&p.uv, repair)));
         self.param = Some(ParamDisplay {
             corner_uvs: p.uv.clone(),
         });
@@ -852,6 +922,9 @@ impl Document {
 
     /// Sets (or clears) the parameterization.
     pub fn set_param(&mut self, param: Option<ParamDisplay>) {
+        self.folds = param
+            .as_ref()
+            .map(|p| Arc::new(Folds::new(&p.corner_uvs, FoldRepair::None)));
         self.param = param;
         self.rebuild_scene();
     }

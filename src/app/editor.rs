@@ -77,6 +77,8 @@ pub struct EditorApp {
     pub(super) parked_tools: Vec<(ToolKind, Box<dyn Tool>)>,
     /// The curve overlays and the feature panel ([`super::curves`]).
     pub curves: super::curves::CurvesUi,
+    /// The fold overlay's cache ([`super::folds`]).
+    pub(super) folds: super::folds::FoldsUi,
     /// An action waiting for the answer to "save the unsaved changes?".
     pub confirm: Option<PendingAction>,
     /// The user chose to close without saving.
@@ -129,6 +131,7 @@ impl EditorApp {
             tool_kind: ToolKind::MoveSingularity,
             parked_tools: Vec::new(),
             curves: Default::default(),
+            folds: Default::default(),
             confirm: None,
             allow_close: false,
             last_title: String::new(),
@@ -283,7 +286,8 @@ impl EditorApp {
                 }
                 Ok(JobOutput::Parameterized(p, analysis)) => {
                     self.document.param_analysis = Some(analysis);
-                    self.document.set_parameterization(*p);
+                    // the stage runs QuadCover with the default options: the repair is on
+                    self.document.set_parameterization(*p, true);
                     show_pattern(&mut self.document);
                     self.status = format!("{} done in {secs:.2} s", job.name);
                 }

@@ -5,6 +5,7 @@
 //!   with its undo cursor, the core's base and cached states, the solved field and
 //!   parameterization shown, overlays, display settings, project path and saved marker).
 //! - [`jobs::Job`]: background work on its own thread, results via a channel.
+//! - [`folds`]: the overlay of the folded faces of the map shown.
 //! - [`picking`]: camera rays and BVH ray casts, for every tool; [`tools`]: the viewport's
 //!   interaction modes (one file per tool), which hand one edit to the document per gesture.
 //! - [`editor`] wires the menus ([`menus`]), the side panel ([`panels`], with the tools and
@@ -19,6 +20,7 @@ pub mod document;
 pub mod editor;
 mod edits;
 pub mod files;
+pub mod folds;
 pub mod jobs;
 mod menus;
 mod panels;

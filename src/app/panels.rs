@@ -49,6 +49,7 @@ impl EditorApp {
             ui.heading("Display");
             let has_param = self.document.has_param();
             let has_field = self.document.field.is_some();
+            let folds = self.document.folds.as_ref().map(|f| f.summary());
             let d = &mut self.document.display;
             ui.horizontal(|ui| {
                 for m in DisplayMode::ALL {
@@ -106,6 +107,15 @@ impl EditorApp {
                 &mut d.show_lines,
                 "Lines (cut graph, constraints, selection)",
             );
+            ui.checkbox(&mut d.show_folds, "Folds").on_hover_text(
+                "Highlight the faces whose texture triangle is folded (non-positive signed area)",
+            );
+            if d.show_folds {
+                match folds {
+                    Some(text) => ui.label(text),
+                    None => ui.weak("Folds: no parameterization yet"),
+                };
+            }
 
             ui.separator();
             ui.heading("Singularity index");
@@ -239,6 +249,11 @@ impl EditorApp {
             d.pure_quad = false;
         }
         ui.checkbox(&mut d.no_half_merges, "No half merges (refuse ±2/4)");
+        let mut untangle = !d.no_untangle;
+        ui.checkbox(&mut untangle, "Untangle folds").on_hover_text(
+            "Repair the folded faces the global step leaves (an injectivity repair of the map)",
+        );
+        d.no_untangle = !untangle;
         ui.add(
             egui::Slider::new(&mut d.relax_merge_within, 0.0..=5.0)
                 .text("Relax merge radius (cells)"),

@@ -244,6 +244,7 @@ struct GpuOverlay {
     lines: Option<(wgpu::Buffer, u32)>,
     thick_lines: Option<(wgpu::Buffer, u32)>,
     glyphs: Option<(wgpu::Buffer, u32)>,
+    over_glyphs: bool,
 }
 
 /// A pipeline drawing one fullscreen triangle (no vertex buffers, no depth): the LIC pass and
@@ -659,6 +660,7 @@ impl Renderer {
                     bytemuck::cast_slice(&o.glyphs),
                     o.glyphs.len(),
                 ),
+                over_glyphs: o.over_glyphs,
             });
         }
     }
@@ -822,7 +824,8 @@ impl Renderer {
             pass.set_vertex_buffer(0, buf.slice(..));
             pass.draw(0..6, 0..*n);
         }
-        // Overlay lines over the scene's (the cut graph), glyphs over every line.
+        // Overlay lines over the scene's (the cut graph), glyphs over those lines, then the
+        // overlays drawn over the glyphs.
         let draw = |pass: &mut wgpu::RenderPass<'_>,
                     pipeline: &wgpu::RenderPipeline,
                     instances: &Option<(wgpu::Buffer, u32)>| {
@@ -833,14 +836,21 @@ impl Renderer {
                 pass.draw(0..6, 0..*n);
             }
         };
-        for overlay in self.overlays.iter().flatten() {
+        let under = || self.overlays.iter().flatten().filter(|o| !o.over_glyphs);
+        for overlay in under() {
             draw(&mut pass, &self.line_pipeline, &overlay.lines);
             draw(&mut pass, &self.thick_line_pipeline, &overlay.thick_lines);
         }
         if settings.show_singularities {
             draw(&mut pass, &self.glyph_pipeline, &scene.glyphs);
         }
-        for overlay in self.overlays.iter().flatten() {
+        for overlay in under() {
+            draw(&mut pass, &self.glyph_pipeline, &overlay.glyphs);
+        }
+        // Overlays over the glyphs (the folds), in slot order.
+        for overlay in self.overlays.iter().flatten().filter(|o| o.over_glyphs) {
+            draw(&mut pass, &self.line_pipeline, &overlay.lines);
+            draw(&mut pass, &self.thick_line_pipeline, &overlay.thick_lines);
             draw(&mut pass, &self.glyph_pipeline, &overlay.glyphs);
         }
     }

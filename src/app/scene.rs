@@ -51,6 +51,9 @@ pub struct Overlay {
     /// Lines twice as wide, drawn after `lines`.
     pub thick_lines: Vec<LineSegment>,
     pub glyphs: Vec<Glyph>,
+    /// Drawn after every glyph (the singularities' too) instead of under them: a marker at a
+    /// singular vertex (a folded face there) stays visible.
+    pub over_glyphs: bool,
 }
 
 impl Overlay {

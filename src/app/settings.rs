@@ -116,6 +116,8 @@ pub struct DisplaySettings {
     pub show_lines: bool,
     /// Draw the constraint curves.
     pub show_curves: bool,
+    /// Highlight the folded faces of the map ([`super::folds`]).
+    pub show_folds: bool,
     pub glyph_size_px: f32,
     pub overlay_line_width_px: f32,
     /// Linear RGB.
@@ -140,6 +142,7 @@ impl Default for DisplaySettings {
             show_singularities: true,
             show_lines: true,
             show_curves: true,
+            show_folds: false,
             glyph_size_px: 14.0,
             overlay_line_width_px: 2.5,
             base_color: [0.62, 0.66, 0.72],

@@ -125,6 +125,7 @@ impl EditorApp {
                 overlays: vec![
                     self.curves_overlay(),
                     self.feature_preview_overlay(),
+                    self.folds_overlay(),
                     self.tool.overlay(),
                 ],
             };
