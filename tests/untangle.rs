@@ -268,3 +268,23 @@ fn needle_triangles_do_not_break_the_repair() {
     assert_eq!(p.flipped_faces, 0);
     assert!((0..mesh.n_faces()).all(|f| signed_area(&p.uv, f) > 0.0));
 }
+
+/// The editor's stale jobs: a cancel check that says stop ends the solve with `Cancelled`
+/// (during or after the repair), one that never does gives the repaired map.
+#[test]
+fn a_cancelled_repair_reports_cancelled() {
+    let Some(path) = meshes::shared("spot.obj") else {
+        return;
+    };
+    let mesh = quadcover::load::load_mesh(&path).unwrap().mesh;
+    let params = FieldParams::default();
+    let f = field::compute_field(&mesh, &params).unwrap().field;
+    let qc = QuadCover::new(&mesh, 4, &f.matchings, ParamOptions::default()).unwrap();
+    let calls = std::sync::atomic::AtomicUsize::new(0);
+    let stop = || calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed) >= 1;
+    let r = qc.solve_with_curves_until(&mesh, &f.frames, &[], &stop);
+    assert!(matches!(r, Err(param::ParamError::Cancelled)), "{r:?}");
+    let p = qc.solve_with_curves_until(&mesh, &f.frames, &[], &|| false).unwrap();
+    assert!(p.flipped_faces_before_repair > 0, "spot folds without the repair");
+    assert_eq!(p.flipped_faces, 0);
+}

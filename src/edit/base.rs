@@ -652,11 +652,17 @@ impl Base {
             return Err(EditError::Cancelled);
         }
         let param = qc
-            .solve_with_curves(&self.mesh, &field.frames, &self.constraint_curves(state))
+            .solve_with_curves_until(
+                &self.mesh,
+                &field.frames,
+                &self.constraint_curves(state),
+                cancel,
+            )
             .map_err(|e| match e {
                 ParamError::Contradiction { curves, message } => {
                     EditError::Contradiction { curves, message }
                 }
+                ParamError::Cancelled => EditError::Cancelled,
                 e => EditError::Param(e.to_string()),
             })?;
         lap("QuadCover solve", &mut timings);

@@ -67,7 +67,13 @@ pub enum ParamError {
     /// of the curves involved, which the message names.
     #[error("{message}")]
     Contradiction { curves: Vec<u32>, message: String },
+    /// The caller's cancel check said stop (during the injectivity repair).
+    #[error("cancelled")]
+    Cancelled,
 }
+
+/// A cancel check polled by long steps (the repair): true = stop.
+pub type CancelCheck<'a> = &'a (dyn Fn() -> bool + Sync);
 
 /// How loop gaps are rounded to the lattice.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
@@ -421,11 +427,22 @@ impl QuadCover {
         self.global.solve(mesh, &self.rots, &local.disk, gaps)
     }
 
-    /// Local step, rounding, global step and the quality report.
+    /// Local step, rounding, global step, the injectivity repair and the quality report.
     pub fn solve(
         &self,
         mesh: &TriMesh,
         frames: &[[DVec3; 2]],
+    ) -> Result<Parameterization, ParamError> {
+        self.solve_until(mesh, frames, &|| false)
+    }
+
+    /// [`QuadCover::solve`] that stops with [`ParamError::Cancelled`] when `cancel` says so
+    /// during the injectivity repair.
+    pub fn solve_until(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[DVec3; 2]],
+        cancel: CancelCheck<'_>,
     ) -> Result<Parameterization, ParamError> {
         let local = self.local_step(mesh, frames)?;
         let t = Instant::now();
@@ -433,13 +450,16 @@ impl QuadCover {
         let mut uv = self.global_uv(mesh, &local, &gaps)?;
         let global_ms = ms(t);
         let space = self.global.map_space(mesh.n_vertices(), &gaps);
-        let mut repair = self.untangle(mesh, &local, &space, &mut uv);
+        let mut repair = self.untangle(mesh, &local, &space, &mut uv, cancel);
         let mut gaps = gaps;
         let mut rerounded = Vec::new();
-        if !repair.stuck.is_empty() {
+        if !repair.stuck.is_empty() && !cancel() {
             let t = Instant::now();
-            rerounded = self.reround(mesh, &local, &mut gaps, &mut uv, &mut repair)?;
+            rerounded = self.reround(mesh, &local, &mut gaps, &mut uv, &mut repair, cancel)?;
             repair.ms += ms(t);
+        }
+        if cancel() {
+            return Err(ParamError::Cancelled);
         }
         let mut p = self.finish(mesh, frames, uv, local.gaps.clone(), gaps);
         p.curl = local.curl(mesh, frames);
@@ -463,8 +483,20 @@ impl QuadCover {
         frames: &[[DVec3; 2]],
         curves: &[ConstraintCurve],
     ) -> Result<Parameterization, ParamError> {
+        self.solve_with_curves_until(mesh, frames, curves, &|| false)
+    }
+
+    /// [`QuadCover::solve_with_curves`] that stops with [`ParamError::Cancelled`] when `cancel`
+    /// says so during the injectivity repair (the editor's stale jobs).
+    pub fn solve_with_curves_until(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[DVec3; 2]],
+        curves: &[ConstraintCurve],
+        cancel: CancelCheck<'_>,
+    ) -> Result<Parameterization, ParamError> {
         if curves.is_empty() {
-            return self.solve(mesh, frames);
+            return self.solve_until(mesh, frames, cancel);
         }
         for c in curves {
             if let Some(&v) = c.vertices.iter().find(|&&v| v >= mesh.n_vertices()) {
@@ -509,7 +541,10 @@ impl QuadCover {
         };
         let global_ms = ms(t);
         // The repair holds the curves' fixed components: the fits below still hold exactly.
-        let repair = self.untangle(mesh, &local, &space, &mut uv);
+        let repair = self.untangle(mesh, &local, &space, &mut uv, cancel);
+        if cancel() {
+            return Err(ParamError::Cancelled);
+        }
         let fits = traced.fits(&self.rots, &uv, &w);
         let mut p = self.finish(mesh, frames, uv, local.gaps.clone(), gaps);
         p.curl = local.curl(mesh, frames);
@@ -536,6 +571,7 @@ impl QuadCover {
         gaps: &mut Vec<[f64; 2]>,
         uv: &mut Vec<[f64; 2]>,
         repair: &mut untangle::Repair,
+        cancel: CancelCheck<'_>,
     ) -> Result<Vec<Rerounded>, ParamError> {
         let first = gaps.clone();
         for _ in 0..3 {
@@ -593,7 +629,7 @@ impl QuadCover {
             }
             let Some((_, g, mut u)) = best else { break };
             let space = self.global.map_space(mesh.n_vertices(), &g);
-            let r = self.untangle(mesh, local, &space, &mut u);
+            let r = self.untangle(mesh, local, &space, &mut u, cancel);
             // Kept only if the repaired map has fewer folds than the current one.
             if untangle::folded(&u).len() >= untangle::folded(uv).len() {
                 break;
@@ -623,6 +659,7 @@ impl QuadCover {
         local: &LocalSolution,
         space: &untangle::MapSpace,
         uv: &mut [[f64; 2]],
+        cancel: CancelCheck<'_>,
     ) -> untangle::Repair {
         if self.opts.no_untangle {
             let n = untangle::folded(uv).len();
@@ -631,7 +668,7 @@ impl QuadCover {
                 ..Default::default()
             };
         }
-        untangle::repair(mesh, &self.rots, space, &local.disk, uv)
+        untangle::repair(mesh, &self.rots, space, &local.disk, uv, cancel)
     }
 
     fn finish(

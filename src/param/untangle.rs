@@ -398,6 +398,7 @@ pub(crate) fn repair(
     space: &MapSpace,
     disk: &[[DVec3; 2]],
     uv: &mut [[f64; 2]],
+    cancel: super::CancelCheck<'_>,
 ) -> Repair {
     let t = Instant::now();
     let all = folded(uv);
@@ -420,7 +421,7 @@ pub(crate) fn repair(
         let updates: Vec<Vec<(usize, [f64; 2])>> = regions(mesh, space, seeds, rings)
             .par_iter()
             .filter(|r| r.len() <= MAX_REGION)
-            .map(|r| solve_region(mesh, rots, space, disk, mean_area, r, uv, relax))
+            .map(|r| solve_region(mesh, rots, space, disk, mean_area, r, uv, relax, cancel))
             .collect();
         for (v, y) in updates.into_iter().flatten() {
             for h in mesh.outgoing(v) {
@@ -430,7 +431,7 @@ pub(crate) fn repair(
     };
     let mut stalled = 0;
     for rings in RINGS {
-        if bad.is_empty() || stalled >= 2 {
+        if bad.is_empty() || stalled >= 2 || cancel() {
             break;
         }
         let left = bad.len();
@@ -444,7 +445,9 @@ pub(crate) fn repair(
     }
     // Relaxation of the repaired places (fold-free regions only), injectivity kept by the
     // barrier and the line search.
-    solve_around(uv, &seeds, RELAX_RINGS, true);
+    if !cancel() {
+        solve_around(uv, &seeds, RELAX_RINGS, true);
+    }
     Repair {
         before,
         stuck: stuck_faces,
@@ -693,6 +696,7 @@ fn solve_region(
     free: &[usize],
     uv: &[[f64; 2]],
     relax: bool,
+    cancel: super::CancelCheck<'_>,
 ) -> Vec<(usize, [f64; 2])> {
     let slot_of: HashMap<usize, u32> = free
         .iter()
@@ -924,6 +928,9 @@ fn solve_region(
         };
         let mut e_prev = total(&y, eps);
         for _ in 0..OUTER {
+            if cancel() {
+                break;
+            }
             for _ in 0..NEWTON_PER_EPS {
                 if !newton(&mut y, eps) {
                     break;
