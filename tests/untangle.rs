@@ -284,7 +284,12 @@ fn a_cancelled_repair_reports_cancelled() {
     let stop = || calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed) >= 1;
     let r = qc.solve_with_curves_until(&mesh, &f.frames, &[], &stop);
     assert!(matches!(r, Err(param::ParamError::Cancelled)), "{r:?}");
-    let p = qc.solve_with_curves_until(&mesh, &f.frames, &[], &|| false).unwrap();
-    assert!(p.flipped_faces_before_repair > 0, "spot folds without the repair");
+    let p = qc
+        .solve_with_curves_until(&mesh, &f.frames, &[], &|| false)
+        .unwrap();
+    assert!(
+        p.flipped_faces_before_repair > 0,
+        "spot folds without the repair"
+    );
     assert_eq!(p.flipped_faces, 0);
 }

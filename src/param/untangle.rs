@@ -55,6 +55,10 @@ const THETA: f64 = 1.0 / 128.0;
 const RINGS: [usize; 5] = [2, 4, 8, 16, 32];
 /// Largest region (vertices) the repair solves.
 const MAX_REGION: usize = 1500;
+/// The same for regions with components held by constraint curves: their folds rarely yield
+/// to larger regions (fandisk with features at 40°: 3.8 s for 12 folds left with the limit
+/// above).
+const MAX_HELD_REGION: usize = 400;
 /// Largest region (vertices) that is solved a second time from the fan layout ([`fan_start`]):
 /// the winding it corrects is a matter of the few rings next to a branch point.
 const FAN_RESTART_MAX: usize = 300;
@@ -420,7 +424,10 @@ pub(crate) fn repair(
     let solve_around = |uv: &mut [[f64; 2]], seeds: &[usize], rings: usize, relax: bool| {
         let updates: Vec<Vec<(usize, [f64; 2])>> = regions(mesh, space, seeds, rings)
             .par_iter()
-            .filter(|r| r.len() <= MAX_REGION)
+            .filter(|r| {
+                let held = r.iter().any(|&v| space.free[v] != [true, true]);
+                r.len() <= if held { MAX_HELD_REGION } else { MAX_REGION }
+            })
             .map(|r| solve_region(mesh, rots, space, disk, mean_area, r, uv, relax, cancel))
             .collect();
         for (v, y) in updates.into_iter().flatten() {
@@ -992,6 +999,10 @@ fn solve_region(
     }
     let mut y = run(start);
     let (mut folds, detmin) = measure(&y);
+    // Restarts (below) in small regions without held components only: under constraint
+    // curves they tripled the cost for no fold fewer (fandisk, features at 40°).
+    let constrained = free.iter().any(|&v| space.free[v] != [true, true]);
+    let restarts = free.len() <= FAN_RESTART_MAX && !constrained;
     if relax {
         // Kept only fold-free and with less energy.
         let better = folds == 0 && total(&y, EPS_BARRIER) < total(&y0, EPS_BARRIER);
@@ -1005,7 +1016,7 @@ fn solve_region(
     // instead of 420° at a −1/6 singularity) is a local minimum the energy rarely leaves:
     // start again from its neighbours laid out by the target triangles around it.
     if folds > 0
-        && free.len() <= FAN_RESTART_MAX
+        && restarts
         && let Some(start) = fan_start(mesh, rots, space, disk, &rf, &unknown, free, uv, &y0)
     {
         let y1 = run(start);
@@ -1018,7 +1029,7 @@ fn solve_region(
     // the far side of its ring, e.g. pressed onto a branch point) is another such minimum:
     // start again with those vertices placed from their neighbours by the target triangles.
     if folds > 0
-        && free.len() <= FAN_RESTART_MAX
+        && restarts
         && let Some(start) =
             ring_start(mesh, rots, space, disk, &unknown, free, &y, &corners_of(&y))
     {
@@ -1052,7 +1063,6 @@ fn solve_region(
     // Only where curves hold components: elsewhere partial repairs are the way to full ones
     // through the growing regions (with this rule everywhere, spot N = 6 at 1500 vertices kept
     // 5 folds instead of 2).
-    let constrained = free.iter().any(|&v| space.free[v] != [true, true]);
     let acceptable =
         folds == 0 || !constrained || distortion(&y) <= PARTIAL_DISTORTION * distortion(&y0);
     if folds < folds0 && acceptable {
