@@ -384,8 +384,16 @@ fn precomputed_analysis_gives_the_same_parameterization() {
         ),
     ];
     let sphere_analysis = param::ParamAnalysis::new(&sphere).unwrap();
+    // Without the injectivity repair: it is a non-convex optimisation whose choices (which
+    // region's result to keep) can turn on rounding differences of 1e-12 between the two
+    // factorizations' orders (measured: the N = 2 sphere's repaired maps differed by 7e-3).
+    // The same inputs give the same repaired map bit for bit (replay tests, tests/edit.rs).
+    let opts = ParamOptions {
+        no_untangle: true,
+        ..Default::default()
+    };
     for (mesh, frames, matchings, n) in cases {
-        let fresh = QuadCover::new(mesh, n, &matchings, ParamOptions::default()).unwrap();
+        let fresh = QuadCover::new(mesh, n, &matchings, opts.clone()).unwrap();
         let own = param::ParamAnalysis::new(mesh).unwrap();
         let analysis = if std::ptr::eq(mesh, &sphere) {
             &sphere_analysis
@@ -393,8 +401,7 @@ fn precomputed_analysis_gives_the_same_parameterization() {
             &own
         };
         let reused =
-            QuadCover::with_analysis(mesh, n, &matchings, ParamOptions::default(), Some(analysis))
-                .unwrap();
+            QuadCover::with_analysis(mesh, n, &matchings, opts.clone(), Some(analysis)).unwrap();
         let (a, b) = (
             fresh.solve(mesh, frames).unwrap(),
             reused.solve(mesh, frames).unwrap(),
