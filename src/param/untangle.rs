@@ -413,8 +413,9 @@ pub(crate) fn repair(
     let (stuck_faces, mut bad): (Vec<usize>, Vec<usize>) =
         all.into_iter().partition(|&f| stuck(mesh, space, uv, f));
     let seeds = bad.clone();
+    // Sequential: a parallel float sum's order depends on the scheduling, and replay must be
+    // bit-identical.
     let mean_area = (0..mesh.n_faces())
-        .into_par_iter()
         .map(|f| tri_area(&target(mesh, disk, f)).abs())
         .filter(|a| a.is_finite())
         .sum::<f64>()
