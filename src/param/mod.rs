@@ -461,16 +461,8 @@ impl QuadCover {
         if cancel() {
             return Err(ParamError::Cancelled);
         }
-        let mut p = self.finish(mesh, frames, uv, local.gaps.clone(), gaps);
-        p.curl = local.curl(mesh, frames);
-        p.flipped_faces_before_repair = repair.before;
+        let mut p = self.complete(mesh, frames, &local, uv, gaps, global_ms, &repair);
         p.rerounded_gaps = rerounded;
-        p.timings = StageTimings {
-            cut_ms: self.timings.cut_ms,
-            local_ms: self.timings.local_ms + local.local_ms,
-            global_ms: self.timings.global_ms + global_ms,
-            repair_ms: repair.ms,
-        };
         Ok(p)
     }
 
@@ -546,16 +538,8 @@ impl QuadCover {
             return Err(ParamError::Cancelled);
         }
         let fits = traced.fits(&self.rots, &uv, &w);
-        let mut p = self.finish(mesh, frames, uv, local.gaps.clone(), gaps);
-        p.curl = local.curl(mesh, frames);
+        let mut p = self.complete(mesh, frames, &local, uv, gaps, global_ms, &repair);
         p.curves = fits;
-        p.flipped_faces_before_repair = repair.before;
-        p.timings = StageTimings {
-            cut_ms: self.timings.cut_ms,
-            local_ms: self.timings.local_ms + local.local_ms,
-            global_ms: self.timings.global_ms + global_ms,
-            repair_ms: repair.ms,
-        };
         Ok(p)
     }
 
@@ -669,6 +653,31 @@ impl QuadCover {
             };
         }
         untangle::repair(mesh, &self.rots, space, &local.disk, uv, cancel)
+    }
+
+    /// [`Self::finish`] plus what both solves add: the curl, the repair's counts and the
+    /// stage timings.
+    #[allow(clippy::too_many_arguments)]
+    fn complete(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[DVec3; 2]],
+        local: &LocalSolution,
+        uv: Vec<[f64; 2]>,
+        gaps: Vec<[f64; 2]>,
+        global_ms: f64,
+        repair: &untangle::Repair,
+    ) -> Parameterization {
+        let mut p = self.finish(mesh, frames, uv, local.gaps.clone(), gaps);
+        p.curl = local.curl(mesh, frames);
+        p.flipped_faces_before_repair = repair.before;
+        p.timings = StageTimings {
+            cut_ms: self.timings.cut_ms,
+            local_ms: self.timings.local_ms + local.local_ms,
+            global_ms: self.timings.global_ms + global_ms,
+            repair_ms: repair.ms,
+        };
+        p
     }
 
     fn finish(

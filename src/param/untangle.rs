@@ -478,7 +478,13 @@ fn unknowns_of(
     v: usize,
 ) -> [f64; 2] {
     let c = mesh.vertex_halfedge(v);
-    let d = [uv[c][0] - space.consts[c][0], uv[c][1] - space.consts[c][1]];
+    corner_unknowns(rots, space, c, uv[c])
+}
+
+/// The inverse of [`corner_uv`]: the unknowns of corner c's vertex that put ψ_c at `p`.
+fn corner_unknowns(rots: &Rots, space: &MapSpace, c: usize, p: [f64; 2]) -> [f64; 2] {
+    let v = space.var[c] as usize;
+    let d = [p[0] - space.consts[c][0], p[1] - space.consts[c][1]];
     apply(
         &transpose(&space.basis[v]),
         apply(rots.get(-(space.rot[c] as i64)), d),
@@ -598,14 +604,7 @@ fn fan_start(
                 let Some(&i) = slot.get(&w) else { continue };
                 let d = mesh.position(w) - ps;
                 let target = [uv[h][0] + disk[f][0].dot(d), uv[h][1] + disk[f][1].dot(d)];
-                let e = [
-                    target[0] - space.consts[c][0],
-                    target[1] - space.consts[c][1],
-                ];
-                let y = apply(
-                    &transpose(&space.basis[w]),
-                    apply(rots.get(-(space.rot[c] as i64)), e),
-                );
+                let y = corner_unknowns(rots, space, c, target);
                 sum[i][0] += y[0];
                 sum[i][1] += y[1];
                 count[i] += 1;
@@ -671,11 +670,7 @@ fn ring_start(
             for a in [mesh.next(h), mesh.prev(h)] {
                 let d = pv - mesh.position(mesh.from(a));
                 let t = [uv[a][0] + disk[f][0].dot(d), uv[a][1] + disk[f][1].dot(d)];
-                let e = [t[0] - space.consts[h][0], t[1] - space.consts[h][1]];
-                let q = apply(
-                    &transpose(&space.basis[v]),
-                    apply(rots.get(-(space.rot[h] as i64)), e),
-                );
+                let q = corner_unknowns(rots, space, h, t);
                 sum = [sum[0] + q[0], sum[1] + q[1]];
                 count += 1.0;
             }
