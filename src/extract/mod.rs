@@ -20,13 +20,17 @@
 mod fill;
 mod lattice;
 mod quality;
+pub mod relax;
 mod stripes;
+pub mod surface;
 mod trace;
 
 use glam::DVec3;
 use thiserror::Error;
 
-pub use quality::{RemeshQuality, quality, remesh_report};
+pub use quality::{
+    RemeshQuality, corner_angles_deg, edge_lengths, irregular_vertices, quality, remesh_report,
+};
 
 use crate::mesh::TriMesh;
 
@@ -55,10 +59,25 @@ impl Default for ExtractOptions {
     }
 }
 
+/// Where an output vertex lies on the input mesh (what relaxation keeps it on).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Origin {
+    /// At input vertex `v`.
+    Vertex(u32),
+    /// In the interior of input edge `e` (on the boundary when `e` is a boundary edge).
+    Edge(u32),
+    /// In the interior of input face `f`.
+    Face(u32),
+    /// Made by a post-process (dual centroids, splits) with no input element of its own.
+    Unknown,
+}
+
 /// An extracted polygon mesh (or stripes, as polylines).
 #[derive(Clone, Debug, Default)]
 pub struct Remesh {
     pub positions: Vec<DVec3>,
+    /// Per output vertex: the input element it lies on (same length as `positions`).
+    pub origins: Vec<Origin>,
     /// Polygons, counter-clockwise as seen from the input's normal side.
     pub faces: Vec<Vec<u32>>,
     /// Iso-lines (stripes, N = 2).
@@ -205,8 +224,10 @@ pub fn dual(remesh: &Remesh) -> Remesh {
             }
         }
     }
+    let origins = vec![Origin::Unknown; positions.len()];
     Remesh {
         positions,
+        origins,
         faces,
         polylines: Vec::new(),
         patched_places: remesh.patched_places,
@@ -218,6 +239,8 @@ pub fn dual(remesh: &Remesh) -> Remesh {
 pub fn split_to_quads(remesh: &Remesh) -> Remesh {
     use std::collections::HashMap;
     let mut positions = remesh.positions.clone();
+    let mut origins = remesh.origins.clone();
+    origins.resize(positions.len(), Origin::Unknown);
     let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
     let mut faces = Vec::new();
     for face in &remesh.faces {
@@ -229,12 +252,14 @@ pub fn split_to_quads(remesh: &Remesh) -> Remesh {
             / n as f64;
         let ci = positions.len() as u32;
         positions.push(c);
+        origins.push(Origin::Unknown);
         let mut mids = Vec::with_capacity(n);
         for k in 0..n {
             let (a, b) = (face[k], face[(k + 1) % n]);
             let key = (a.min(b), a.max(b));
             let m = *mid.entry(key).or_insert_with(|| {
                 positions.push(0.5 * (remesh.positions[a as usize] + remesh.positions[b as usize]));
+                origins.push(Origin::Unknown);
                 positions.len() as u32 - 1
             });
             mids.push(m);
@@ -245,6 +270,7 @@ pub fn split_to_quads(remesh: &Remesh) -> Remesh {
     }
     Remesh {
         positions,
+        origins,
         faces,
         polylines: remesh.polylines.clone(),
         patched_places: remesh.patched_places,

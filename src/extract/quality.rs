@@ -170,6 +170,85 @@ pub fn quality(remesh: &Remesh, input: &TriMesh) -> RemeshQuality {
     q
 }
 
+/// Every corner angle of every face, in degrees (what the editor's histogram shows).
+pub fn corner_angles_deg(remesh: &Remesh) -> Vec<f64> {
+    let p = &remesh.positions;
+    let mut out = Vec::new();
+    for f in &remesh.faces {
+        let n = f.len();
+        for k in 0..n {
+            let (a, b, c) = (f[k], f[(k + 1) % n], f[(k + n - 1) % n]);
+            let ang = (p[c as usize] - p[a as usize])
+                .angle_between(p[b as usize] - p[a as usize])
+                .to_degrees();
+            if ang.is_finite() {
+                out.push(ang);
+            }
+        }
+    }
+    out
+}
+
+/// The length of every undirected edge of the faces and polylines.
+pub fn edge_lengths(remesh: &Remesh) -> Vec<f64> {
+    let p = &remesh.positions;
+    let mut seen = std::collections::HashSet::new();
+    let mut out = Vec::new();
+    let mut add = |a: u32, b: u32| {
+        if seen.insert((a.min(b), a.max(b))) {
+            out.push((p[a as usize] - p[b as usize]).length());
+        }
+    };
+    for f in &remesh.faces {
+        for k in 0..f.len() {
+            add(f[k], f[(k + 1) % f.len()]);
+        }
+    }
+    for pl in &remesh.polylines {
+        for w in pl.windows(2) {
+            add(w[0], w[1]);
+        }
+    }
+    out
+}
+
+/// Interior vertices whose valence differs from the regular one of the dominant face type
+/// (4 for quads, 6 for triangles, 3 for hexagons), in increasing order.
+pub fn irregular_vertices(remesh: &Remesh) -> Vec<u32> {
+    let mut by_sides: BTreeMap<usize, usize> = BTreeMap::new();
+    for f in &remesh.faces {
+        *by_sides.entry(f.len()).or_default() += 1;
+    }
+    let regular = match by_sides.iter().max_by_key(|x| *x.1).map(|x| *x.0) {
+        Some(3) => 6,
+        Some(6) => 3,
+        _ => 4,
+    };
+    let mut undirected: HashMap<(u32, u32), usize> = HashMap::new();
+    for f in &remesh.faces {
+        for k in 0..f.len() {
+            let (a, b) = (f[k], f[(k + 1) % f.len()]);
+            *undirected.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    let n = remesh.positions.len();
+    let (mut valence, mut boundary) = (vec![0usize; n], vec![false; n]);
+    for (&(a, b), &c) in &undirected {
+        valence[a as usize] += 1;
+        valence[b as usize] += 1;
+        if c == 1 {
+            boundary[a as usize] = true;
+            boundary[b as usize] = true;
+        }
+    }
+    (0..n as u32)
+        .filter(|&v| {
+            let v = v as usize;
+            !boundary[v] && valence[v] > 0 && valence[v] != regular
+        })
+        .collect()
+}
+
 /// Extracts and measures in one call (what `solve --remesh` and `extract` use).
 pub fn remesh_report(
     mesh: &TriMesh,

@@ -94,8 +94,16 @@ pub fn extract_stripes(p: &Param) -> Remesh {
             }
         }
     }
+    // Stripe points are iso-line crossings of input edges.
+    let mut origins = vec![super::Origin::Unknown; positions.len()];
+    for (e, list) in on_edge.iter().enumerate() {
+        for &(_, id) in list {
+            origins[id as usize] = super::Origin::Edge(e as u32);
+        }
+    }
     Remesh {
         positions,
+        origins,
         faces: Vec::new(),
         polylines,
         patched_places: patched,

@@ -4,7 +4,7 @@ use super::fill;
 use glam::{DVec2, DVec3};
 
 use super::lattice::{Param, cross, dv, to_uv};
-use super::{ExtractOptions, Remesh};
+use super::{ExtractOptions, Origin, Remesh};
 
 #[derive(Clone, Copy, Debug)]
 #[allow(dead_code)] // parameters kept for debugging output
@@ -615,17 +615,24 @@ pub fn extract_grid(p: &Param, opts: &ExtractOptions) -> Remesh {
     // Compact.
     let mut map = vec![NONE; np];
     let mut positions = Vec::new();
+    let mut origins = Vec::new();
     for f in &mut faces {
         for v in f.iter_mut() {
             if map[*v as usize] == NONE {
                 map[*v as usize] = positions.len() as u32;
                 positions.push(grid.points[*v as usize].pos);
+                origins.push(match grid.points[*v as usize].owner {
+                    Owner::Vertex(v) => Origin::Vertex(v as u32),
+                    Owner::Edge(h, _) | Owner::Boundary(h, _) => Origin::Edge(mesh.edge(h) as u32),
+                    Owner::Face(f) => Origin::Face(f as u32),
+                });
             }
             *v = map[*v as usize];
         }
     }
     Remesh {
         positions,
+        origins,
         faces,
         polylines: Vec::new(),
         patched_places: patched,

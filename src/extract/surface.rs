@@ -1,0 +1,1 @@
+//! Closest-point queries on the input surface (filled in by the relaxation work).
