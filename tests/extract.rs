@@ -168,7 +168,13 @@ fn triangles_and_hexagons() {
     let mesh = generate::grid(16, 16, 1.0, 1.0);
     for s in [6.0, 9.0] {
         let uv = vertex_uvs(&mesh, |p| [s * p.x, s * p.y]);
-        let r = extract(&mesh, &uv, 6, &ExtractOptions::default()).unwrap();
+        // The raw extraction: a regular lattice up to the boundary (the pure one triangulates
+        // the cells the boundary cuts: tests/remesh.rs).
+        let raw = ExtractOptions {
+            pure: false,
+            ..Default::default()
+        };
+        let r = extract(&mesh, &uv, 6, &raw).unwrap();
         assert_manifold(&r);
         let q = quality(&r, &mesh);
         println!("N=6 s={s}\n{q}");
@@ -277,7 +283,13 @@ fn pipeline(
         })
         .map(|f| mesh.face_centroid(f))
         .collect();
-    let remesh = extract(mesh, &p.uv, n as u8, &ExtractOptions::default()).unwrap();
+    // The raw extraction: `pure` would hide exactly what these tests look at (tests/remesh.rs
+    // checks the pure output).
+    let raw = ExtractOptions {
+        pure: false,
+        ..Default::default()
+    };
+    let remesh = extract(mesh, &p.uv, n as u8, &raw).unwrap();
     (remesh, singular, folded)
 }
 

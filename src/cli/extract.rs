@@ -26,9 +26,13 @@ pub struct ExtractArgs {
     /// For --symmetry 6: write the hexagon mesh (dual of the triangle mesh).
     #[arg(long)]
     pub dual: bool,
-    /// Split non-quads of a quad extraction into quads.
+    /// Split every face of a quad extraction into four (half the edge length).
+    #[arg(long, alias = "pure-quad")]
+    pub split_to_quads: bool,
+    /// Keep the polygons extraction leaves (cells cut by the boundary, off-lattice
+    /// singularities, fold patches) instead of making the output pure quads / triangles.
     #[arg(long)]
-    pub pure_quad: bool,
+    pub no_pure: bool,
 }
 
 pub fn run(args: &ExtractArgs) -> Result<(), CliError> {
@@ -56,7 +60,8 @@ pub fn run(args: &ExtractArgs) -> Result<(), CliError> {
         }
     }
     let opts = ExtractOptions {
-        split_to_quads: args.pure_quad,
+        split_to_quads: args.split_to_quads,
+        pure: !args.no_pure,
         ..Default::default()
     };
     let (mut remesh, mut q) = remesh_report(&mesh, &uv, args.symmetry, &opts)?;

@@ -58,9 +58,14 @@ pub struct SolveArgs {
     /// default 1, 0 = keep the rounded field).
     #[arg(long)]
     pub cancel_pairs_within: Option<f64>,
-    /// Round gaps to 2Z² so that singularities land on integer grid points (N = 2, 4).
-    #[arg(long)]
+    /// Round gaps to 2Z² so that singularities land on integer grid points (N = 4; the default,
+    /// kept for old scripts).
+    #[arg(long, conflicts_with = "no_pure_quad")]
     pub pure_quad: bool,
+    /// Round gaps to ½Z² as in the thesis (N = 4): less distortion, but singularities between
+    /// grid points, so more irregular vertices in the remesh.
+    #[arg(long)]
+    pub no_pure_quad: bool,
     /// Gap rounding: direct (thesis) or greedy (MIQ-style) [default: direct].
     #[arg(long, value_enum)]
     pub rounding: Option<RoundingArg>,
@@ -225,6 +230,9 @@ fn settings_from(args: &SolveArgs, base: Option<&Settings>) -> Result<Settings, 
     if args.pure_quad {
         s.pure_quad = true;
     }
+    if args.no_pure_quad {
+        s.pure_quad = false;
+    }
     if let Some(r) = args.rounding {
         s.rounding = match r {
             RoundingArg::Direct => RoundingSetting::Direct,
@@ -267,9 +275,6 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let settings = settings_from(args, project.as_ref().map(|p| &p.settings))?;
     let symmetry = Symmetry::from_n(settings.symmetry)?;
     let n = settings.symmetry as usize;
-    if settings.pure_quad && n == 6 {
-        return Err("--pure-quad needs --symmetry 2 or 4".into());
-    }
     let mesh_path = match (&args.mesh, &project, &args.project) {
         (Some(m), _, _) => m.clone(),
         (None, Some(p), Some(pp)) => p.mesh_path(pp),

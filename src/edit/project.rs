@@ -38,6 +38,8 @@ pub struct Settings {
     pub reliable_fraction: f64,
     pub curvature_smoothing: usize,
     pub cancel_pairs_within: f64,
+    /// N = 4: round gaps to 2Z² so that singularities land on grid points and the remesh has
+    /// one irregular vertex per singularity (default on; ignored for N = 2 and 6).
     pub pure_quad: bool,
     pub rounding: RoundingSetting,
     /// Refuse merges that would create a singularity of index ±2/4 (a hanging node; N = 4).
@@ -67,7 +69,7 @@ impl Default for Settings {
             reliable_fraction: f.reliable_fraction,
             curvature_smoothing: f.curvature_smoothing,
             cancel_pairs_within: f.cancel_pairs_within,
-            pure_quad: false,
+            pure_quad: true,
             rounding: RoundingSetting::Direct,
             no_half_merges: false,
             relax_merge_within: 1.0,
@@ -114,9 +116,6 @@ impl Settings {
         if self.scale.is_some() && self.target_vertices.is_some() {
             return Err("give target_vertices or scale, not both".into());
         }
-        if self.pure_quad && self.symmetry == 6 {
-            return Err("pure_quad needs symmetry 2 or 4".into());
-        }
         Ok(())
     }
 
@@ -149,7 +148,7 @@ impl Settings {
                 RoundingSetting::Direct => Rounding::Direct,
                 RoundingSetting::Greedy => Rounding::Greedy,
             },
-            pure_quad: self.pure_quad,
+            pure_quad: self.pure_quad && self.symmetry == 4,
             no_untangle: self.no_untangle,
         }
     }

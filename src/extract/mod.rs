@@ -19,6 +19,8 @@
 
 mod fill;
 mod lattice;
+mod purify;
+pub use purify::PurifyStats;
 mod quality;
 pub mod relax;
 mod stripes;
@@ -41,7 +43,11 @@ pub struct ExtractOptions {
     pub snap_tolerance: f64,
     /// Longest face (in sides) accepted when closing faces; longer cycles are dropped as patched.
     pub max_face_sides: usize,
-    /// Split every non-quad polygon of a quad extraction into quads (1:4 style midpoint split).
+    /// Pure output: a quad extraction all quads, a triangle extraction all triangles, at the
+    /// same density (local chords, collapses and paired midpoints; see `purify`).
+    pub pure: bool,
+    /// Split every face of a quad extraction into four (1:4 midpoint split, half the edge
+    /// length; all quads too, but with an irregular vertex in every former non-quad).
     pub split_to_quads: bool,
     /// Refuse grids finer than this many points (estimated from the UV area before any point
     /// is made), instead of exhausting memory on a mistyped scale.
@@ -53,6 +59,7 @@ impl Default for ExtractOptions {
         ExtractOptions {
             snap_tolerance: 1e-4,
             max_face_sides: 32,
+            pure: true,
             split_to_quads: false,
             max_points: 50_000_000,
         }
@@ -85,6 +92,8 @@ pub struct Remesh {
     /// Places where the input needed local patching (flipped / degenerate triangles, traces
     /// that could not be matched, dropped faces).
     pub patched_places: usize,
+    /// What made the output pure (zero when `ExtractOptions::pure` is off).
+    pub purified: PurifyStats,
 }
 
 /// Why extraction failed.
@@ -163,6 +172,9 @@ pub fn extract(
     if out.positions.is_empty() {
         return Err(ExtractError::Empty);
     }
+    if opts.pure && symmetry != 2 {
+        out.purified = purify::purify(&mut out, if symmetry == 4 { 4 } else { 3 });
+    }
     if symmetry == 4 && opts.split_to_quads {
         out = split_to_quads(&out);
     }
@@ -231,6 +243,7 @@ pub fn dual(remesh: &Remesh) -> Remesh {
         faces,
         polylines: Vec::new(),
         patched_places: remesh.patched_places,
+        purified: remesh.purified,
     }
 }
 
@@ -274,5 +287,6 @@ pub fn split_to_quads(remesh: &Remesh) -> Remesh {
         faces,
         polylines: remesh.polylines.clone(),
         patched_places: remesh.patched_places,
+        purified: remesh.purified,
     }
 }

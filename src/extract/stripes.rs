@@ -107,5 +107,6 @@ pub fn extract_stripes(p: &Param) -> Remesh {
         faces: Vec::new(),
         polylines,
         patched_places: patched,
+        purified: Default::default(),
     }
 }

@@ -636,5 +636,6 @@ pub fn extract_grid(p: &Param, opts: &ExtractOptions) -> Remesh {
         faces,
         polylines: Vec::new(),
         patched_places: patched,
+        purified: Default::default(),
     }
 }

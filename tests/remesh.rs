@@ -1,0 +1,239 @@
+//! The remesh as users get it (`solve --remesh` with default settings): pure (all quads for
+//! N = 4, all triangles for N = 6), manifold, with the input's Euler characteristic and boundary
+//! loops, and irregular vertices at singularities (src/extract/purify.rs for what makes it pure;
+//! tests/extract.rs checks the raw extraction underneath).
+
+#[path = "support/meshes.rs"]
+mod meshes;
+
+use std::collections::{HashMap, HashSet};
+
+use glam::DVec3;
+use quadcover::edit::{Settings, never};
+use quadcover::extract::{ExtractOptions, Remesh, extract, irregular_vertices};
+use quadcover::mesh::TriMesh;
+
+/// Directed edges used once, undirected at most twice, and one fan of faces around each vertex.
+fn assert_manifold(r: &Remesh, what: &str) {
+    let mut directed: HashMap<(u32, u32), usize> = HashMap::new();
+    for f in &r.faces {
+        let mut seen = HashSet::new();
+        for k in 0..f.len() {
+            assert!(seen.insert(f[k]), "{what}: face {f:?} repeats a vertex");
+            *directed.entry((f[k], f[(k + 1) % f.len()])).or_default() += 1;
+        }
+    }
+    let twice: Vec<_> = directed.iter().filter(|e| *e.1 > 1).collect();
+    assert!(
+        twice.is_empty(),
+        "{what}: directed edges used twice: {twice:?}"
+    );
+    // Vertex fans: around v, the faces linked through shared edges (v, w) form one component.
+    let mut corners: HashMap<u32, Vec<(u32, u32)>> = HashMap::new(); // v -> (prev, next)
+    for f in &r.faces {
+        let n = f.len();
+        for k in 0..n {
+            corners
+                .entry(f[k])
+                .or_default()
+                .push((f[(k + n - 1) % n], f[(k + 1) % n]));
+        }
+    }
+    for (v, cs) in &corners {
+        // Union the corners that share a neighbour w (corner i's next == corner j's prev).
+        let mut parent: Vec<usize> = (0..cs.len()).collect();
+        fn find(p: &mut [usize], i: usize) -> usize {
+            if p[i] != i {
+                p[i] = find(p, p[i]);
+            }
+            p[i]
+        }
+        for i in 0..cs.len() {
+            for j in 0..cs.len() {
+                if cs[i].1 == cs[j].0 {
+                    let (a, b) = (find(&mut parent, i), find(&mut parent, j));
+                    parent[a] = b;
+                }
+            }
+        }
+        let roots: HashSet<usize> = (0..cs.len()).map(|i| find(&mut parent, i)).collect();
+        assert_eq!(
+            roots.len(),
+            1,
+            "{what}: vertex {v} has {} fans",
+            roots.len()
+        );
+    }
+}
+
+fn euler(r: &Remesh) -> i64 {
+    let mut edges = HashSet::new();
+    let mut used = HashSet::new();
+    for f in &r.faces {
+        for k in 0..f.len() {
+            let (a, b) = (f[k], f[(k + 1) % f.len()]);
+            edges.insert((a.min(b), a.max(b)));
+            used.insert(a);
+        }
+    }
+    used.len() as i64 - edges.len() as i64 + r.faces.len() as i64
+}
+
+/// Boundary loops of a polygon mesh: the cycles of directed edges without a twin.
+fn boundary_loops(r: &Remesh) -> usize {
+    let directed: HashSet<(u32, u32)> = r
+        .faces
+        .iter()
+        .flat_map(|f| (0..f.len()).map(move |k| (f[k], f[(k + 1) % f.len()])))
+        .collect();
+    let mut next: HashMap<u32, u32> = HashMap::new();
+    for &(a, b) in &directed {
+        if !directed.contains(&(b, a)) {
+            next.insert(a, b);
+        }
+    }
+    let mut seen = HashSet::new();
+    let mut loops = 0;
+    let mut starts: Vec<u32> = next.keys().copied().collect();
+    starts.sort_unstable();
+    for s in starts {
+        if seen.contains(&s) {
+            continue;
+        }
+        loops += 1;
+        let mut v = s;
+        while seen.insert(v) {
+            v = next[&v];
+        }
+    }
+    loops
+}
+
+struct Case {
+    mesh: TriMesh,
+    remesh: Remesh,
+    singular: Vec<DVec3>,
+}
+
+/// What `solve --remesh` makes of a shared mesh with default settings and symmetry `n`.
+fn remesh_of(name: &str, n: u32) -> Option<Case> {
+    let path = meshes::shared(name)?;
+    let settings = Settings {
+        symmetry: n,
+        ..Default::default()
+    };
+    let base = meshes::base_for(&path, settings);
+    let solved = base.solve(base.initial(), &never).unwrap();
+    let mesh = (**base.mesh()).clone();
+    let remesh = extract(&mesh, &solved.param.uv, n as u8, &ExtractOptions::default()).unwrap();
+    let singular = solved
+        .param
+        .singularities
+        .iter()
+        .map(|s| mesh.position(s.vertex))
+        .collect();
+    Some(Case {
+        mesh,
+        remesh,
+        singular,
+    })
+}
+
+const MESHES: [&str; 9] = [
+    "spot.obj",
+    "kitten.obj",
+    "eight.obj",
+    "fertility.obj",
+    "fandisk.obj",
+    "camelhead.obj",
+    "max-planck.obj",
+    "bunny.obj",
+    "cerebral-vessels.obj",
+];
+
+/// Issue check: every shared mesh, N = 4 and 6 — pure, manifold, Euler characteristic and
+/// boundary loops of the input; on closed meshes where extraction closed every cell itself,
+/// irregular vertices only at singularities.
+#[test]
+fn default_remeshes_are_pure_and_keep_the_topology() {
+    for name in MESHES {
+        for n in [4u32, 6] {
+            let Some(c) = remesh_of(name, n) else { return };
+            let what = format!("{name} N={n}");
+            let r = &c.remesh;
+            let sides = if n == 4 { 4 } else { 3 };
+            let impure = r.faces.iter().filter(|f| f.len() != sides).count();
+            assert_eq!(
+                impure, 0,
+                "{what}: {impure} faces that are not {sides}-gons"
+            );
+            assert_manifold(r, &what);
+            assert_eq!(euler(r), c.mesh.euler_characteristic(), "{what}: Euler");
+            assert_eq!(
+                boundary_loops(r),
+                c.mesh.boundary_loops().len(),
+                "{what}: boundary loops"
+            );
+            let irregular = irregular_vertices(r);
+            let h = mean_edge(r);
+            let far: Vec<u32> = irregular
+                .iter()
+                .copied()
+                .filter(|&v| {
+                    let p = r.positions[v as usize];
+                    !c.singular.iter().any(|s| (*s - p).length() < 1.5 * h)
+                })
+                .collect();
+            println!(
+                "{what}: {} faces, {} irregular ({} singularities), {} away from them; purified {:?}",
+                r.faces.len(),
+                irregular.len(),
+                c.singular.len(),
+                far.len(),
+                r.purified
+            );
+            if r.purified.impure_faces == 0 && r.patched_places == 0 {
+                assert!(
+                    far.is_empty(),
+                    "{what}: irregular away from singularities: {far:?}"
+                );
+            }
+        }
+    }
+}
+
+fn mean_edge(r: &Remesh) -> f64 {
+    let l = quadcover::extract::edge_lengths(r);
+    l.iter().sum::<f64>() / l.len().max(1) as f64
+}
+
+/// The cases purify exists for occur: without it the bunny's quad remesh (five boundary loops
+/// cut across by the grid) has other polygons, with it none, at nearly the same vertex count.
+#[test]
+fn purify_is_what_makes_the_bunny_all_quads() {
+    let Some(c) = remesh_of("bunny.obj", 4) else {
+        return;
+    };
+    let path = meshes::shared("bunny.obj").unwrap();
+    let base = meshes::base_for(&path, Settings::default());
+    let solved = base.solve(base.initial(), &never).unwrap();
+    let raw = extract(
+        &c.mesh,
+        &solved.param.uv,
+        4,
+        &ExtractOptions {
+            pure: false,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let non_quads = raw.faces.iter().filter(|f| f.len() != 4).count();
+    assert!(
+        non_quads > 20,
+        "raw bunny remesh has only {non_quads} non-quads"
+    );
+    assert_eq!(c.remesh.purified.impure_faces, non_quads);
+    assert!(c.remesh.faces.iter().all(|f| f.len() == 4));
+    let (a, b) = (raw.positions.len() as f64, c.remesh.positions.len() as f64);
+    assert!((b - a).abs() < 0.05 * a, "vertices {a} -> {b}");
+}
