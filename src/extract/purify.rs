@@ -234,13 +234,14 @@ fn pair_odd_faces(remesh: &mut Remesh, stats: &mut PurifyStats) {
     // Faces no path can reach a partner from (only with inconsistent orientations, where the
     // handshake argument fails): left odd.
     let mut alone: HashSet<usize> = HashSet::new();
+    // Kept up to date below: each path only splits edges.
+    let mut he = edge_faces(&remesh.faces);
     loop {
         let Some(start) =
             (0..remesh.faces.len()).find(|&fi| is_odd(&remesh.faces[fi]) && !alone.contains(&fi))
         else {
             return;
         };
-        let he = edge_faces(&remesh.faces);
         // Breadth-first search over faces across interior edges, to the nearest other odd face
         // or to a face with a boundary edge. Ties go to the lowest face id (determinism).
         let mut prev: HashMap<usize, (usize, (u32, u32))> = HashMap::new();
@@ -288,12 +289,17 @@ fn pair_odd_faces(remesh: &mut Remesh, stats: &mut PurifyStats) {
             let m = add_midpoint(remesh, a, b, false);
             insert_after(&mut remesh.faces[pf], a, b, m);
             insert_after(&mut remesh.faces[fi], b, a, m);
+            he.remove(&(a, b));
+            he.remove(&(b, a));
+            he.extend([((a, m), pf), ((m, b), pf), ((b, m), fi), ((m, a), fi)]);
             stats.inserted_vertices += 1;
             fi = pf;
         }
         if let Some((a, b)) = boundary_edge {
             let m = add_midpoint(remesh, a, b, true);
             insert_after(&mut remesh.faces[last], a, b, m);
+            he.remove(&(a, b));
+            he.extend([((a, m), last), ((m, b), last)]);
             stats.inserted_vertices += 1;
         }
     }
