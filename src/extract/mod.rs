@@ -20,6 +20,7 @@
 mod fill;
 mod lattice;
 mod purify;
+mod snap;
 pub use purify::PurifyStats;
 mod quality;
 pub mod relax;

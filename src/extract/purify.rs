@@ -29,6 +29,8 @@ use super::{Origin, Remesh};
 pub struct PurifyStats {
     /// Faces that were not pure before.
     pub impure_faces: usize,
+    /// Boundary crossings merged into the grid point beside them (`snap`).
+    pub snapped: usize,
     pub collapsed_edges: usize,
     pub inserted_vertices: usize,
     pub chords: usize,
@@ -46,6 +48,8 @@ pub fn purify(remesh: &mut Remesh, sides: usize) -> PurifyStats {
     remesh
         .origins
         .resize(remesh.positions.len(), Origin::Unknown);
+    let h = mean_edge_length(remesh);
+    stats.snapped = super::snap::snap_boundary(remesh, sides, h);
     if sides == 4 {
         collapse_or_extend_boundary_odd_faces(remesh, &mut stats);
         pair_odd_faces(remesh, &mut stats);
