@@ -1,1 +1,614 @@
-//! Tangential relaxation of a remesh on the input surface (filled in by the relaxation work).
+//! Tangential relaxation of a remesh on the input surface (the last step of Instant Meshes and
+//! QuadWild): the connectivity stays, the vertices move to even out edge lengths and angles.
+//!
+//! Each iteration is a Jacobi step (every vertex moves from the previous iterate only, so the
+//! result does not depend on the thread count):
+//! - *free* vertices move a fraction `step` of the way to the mean of their faces' ideal
+//!   positions (per quad the square completed over the diagonal of its two neighbours, per
+//!   triangle the equilateral apex over the opposite edge, in the input's tangent plane),
+//!   blended with the neighbour mean, and are projected back onto the input ([`Surface`]);
+//! - *sliding* vertices (on a constraint chain: boundary loops, feature curves) move to the
+//!   midpoint of their two neighbours along the chain and are projected onto that chain only,
+//!   near where they were (never onto another chain passing nearby);
+//! - *fixed* vertices (chain corners: input vertices with a number of constrained edges other
+//!   than two, or where the chain turns by more than `corner_angle_deg`) do not move.
+//!
+//! After each step, faces that would flip against the input (their Newell normal against the
+//! input's normal at the closest point to the face centroid, with a margin) or whose smallest
+//! corner angle would drop below `min(previous, min_angle_deg)` have their vertices put back;
+//! repeated until no face is made worse. So no face flips that was not flipped before, and the
+//! smallest corner angle of the mesh never decreases.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::surface::Surface;
+use super::{Origin, Remesh};
+use crate::mesh::TriMesh;
+
+/// Options of [`relax`].
+#[derive(Clone, Debug)]
+pub struct RelaxOptions {
+    /// Jacobi iterations (0 = off).
+    pub iterations: usize,
+    /// Fraction of the way to the target moved per iteration (0..=1).
+    pub step: f64,
+    /// Weight of the neighbour mean (uniform Laplacian) against the per-face ideal shapes.
+    pub laplacian_weight: f64,
+    /// Weight of the spring target (every edge pulled towards the mean edge length of the
+    /// remesh) against the shape target above: what evens out edge lengths across the mesh
+    /// (the Laplacian and the ideal shapes only even them out locally). 0 keeps the
+    /// parameterization's sizing (e.g. a curvature-adaptive density).
+    pub spring_weight: f64,
+    /// Chains of constrained input edges turning by more than this (degrees) at a vertex have a
+    /// fixed corner there.
+    pub corner_angle_deg: f64,
+    /// Corner angles (degrees) are kept at least at `min(what they were, max(this, the
+    /// remesh's smallest angle))`: no corner drops below the smallest one of the input.
+    pub min_angle_deg: f64,
+}
+
+impl Default for RelaxOptions {
+    fn default() -> Self {
+        RelaxOptions {
+            iterations: 20,
+            step: 0.5,
+            laplacian_weight: 1.0,
+            spring_weight: 0.5,
+            corner_angle_deg: 30.0,
+            min_angle_deg: 15.0,
+        }
+    }
+}
+
+/// What [`relax`] did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RelaxStats {
+    /// Vertices whose position changed.
+    pub moved: usize,
+    /// Largest distance of a vertex from where it started (absolute, in mesh units).
+    pub max_offset: f64,
+    /// Vertices that slid along a constraint chain / stayed fixed / moved freely.
+    pub sliding: usize,
+    pub fixed: usize,
+    pub free: usize,
+    /// Vertex steps put back because a face would have flipped or degenerated.
+    pub rejected: usize,
+    pub iterations: usize,
+}
+
+/// A chain of constrained input edges between corners (or a closed loop without corners).
+struct Chain {
+    /// Input vertices in order; a closed chain repeats its first vertex at the end.
+    verts: Vec<usize>,
+    pts: Vec<DVec3>,
+    closed: bool,
+    boundary: bool,
+}
+
+impl Chain {
+    fn n_segments(&self) -> usize {
+        self.pts.len() - 1
+    }
+
+    /// The closest point to `q` on the segments within reach `reach` (arc length) of segment
+    /// `s`, and its segment.
+    fn project_near(&self, q: DVec3, s: usize, reach: f64) -> (DVec3, usize) {
+        let ns = self.n_segments();
+        let seg = |i: usize| (self.pts[i], self.pts[i + 1]);
+        let on = |i: usize| {
+            let (a, b) = seg(i);
+            let ab = b - a;
+            let l2 = ab.length_squared();
+            let t = if l2 > 0.0 {
+                ((q - a).dot(ab) / l2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            a + ab * t
+        };
+        let mut best = (on(s), s);
+        let mut best_d = (best.0 - q).length_squared();
+        for dir in [1i64, -1] {
+            // always the next segment on each side, further ones within reach
+            let (mut i, mut walked) = (s as i64, 0.0);
+            for _ in 1..ns {
+                i += dir;
+                if !self.closed && (i < 0 || i >= ns as i64) {
+                    break;
+                }
+                let k = i.rem_euclid(ns as i64) as usize;
+                let p = on(k);
+                let d = (p - q).length_squared();
+                if d < best_d {
+                    best_d = d;
+                    best = (p, k);
+                }
+                let (a, b) = seg(k);
+                walked += (b - a).length();
+                if walked > reach {
+                    break;
+                }
+            }
+        }
+        best
+    }
+
+    /// The closest point to `q` on the whole chain (squared distance, segment).
+    fn project_all(&self, q: DVec3) -> (f64, usize) {
+        (0..self.n_segments())
+            .map(|i| {
+                let (a, b) = (self.pts[i], self.pts[i + 1]);
+                let ab = b - a;
+                let l2 = ab.length_squared();
+                let t = if l2 > 0.0 {
+                    ((q - a).dot(ab) / l2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                ((a + ab * t - q).length_squared(), i)
+            })
+            .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a })
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kind {
+    Fixed,
+    Free,
+    Slide(u32),
+}
+
+/// Constraint chains of the input and where each input vertex / edge lies on them.
+struct Chains {
+    chains: Vec<Chain>,
+    /// Per input edge: (chain, segment) if constrained.
+    edge: Vec<Option<(u32, u32)>>,
+    /// Per input vertex: a (chain, segment) through it, unless it is a corner or unconstrained.
+    vertex: Vec<Option<(u32, u32)>>,
+    corner: Vec<bool>,
+}
+
+fn build_chains(input: &TriMesh, constrained: &[bool], corner_angle_deg: f64) -> Chains {
+    let nv = input.n_vertices();
+    let ne = input.n_edges();
+    let is_con =
+        |e: usize| input.is_boundary_edge(e) || constrained.get(e).copied().unwrap_or(false);
+    let mut incident: Vec<Vec<usize>> = vec![Vec::new(); nv];
+    for e in 0..ne {
+        if is_con(e) {
+            let [a, b] = input.edge_vertices(e);
+            incident[a].push(e);
+            incident[b].push(e);
+        }
+    }
+    let other = |e: usize, v: usize| {
+        let [a, b] = input.edge_vertices(e);
+        if a == v { b } else { a }
+    };
+    let cos_max = corner_angle_deg.to_radians().cos();
+    let corner: Vec<bool> = (0..nv)
+        .map(|v| match incident[v].len() {
+            0 => false,
+            2 => {
+                let p = input.position(v);
+                let a = input.position(other(incident[v][0], v));
+                let b = input.position(other(incident[v][1], v));
+                // turn angle between (p − a) and (b − p)
+                let (u, w) = ((p - a).normalize_or_zero(), (b - p).normalize_or_zero());
+                u.dot(w) < cos_max
+            }
+            _ => true,
+        })
+        .collect();
+    let mut edge: Vec<Option<(u32, u32)>> = vec![None; ne];
+    let mut chains = Vec::new();
+    let mut walk = |start: usize, e0: usize, edge: &mut Vec<Option<(u32, u32)>>| {
+        let id = chains.len() as u32;
+        let mut verts = vec![start];
+        let (mut v, mut e) = (start, e0);
+        loop {
+            edge[e] = Some((id, verts.len() as u32 - 1));
+            let w = other(e, v);
+            verts.push(w);
+            if w == start || corner[w] {
+                break;
+            }
+            // a non-corner constrained vertex has exactly two constrained edges
+            let next = incident[w].iter().copied().find(|&g| g != e);
+            match next {
+                Some(g) if edge[g].is_none() => {
+                    v = w;
+                    e = g;
+                }
+                _ => break,
+            }
+        }
+        let closed = verts.first() == verts.last() && !corner[start];
+        let pts = verts.iter().map(|&v| input.position(v)).collect();
+        chains.push(Chain {
+            verts,
+            pts,
+            closed,
+            boundary: input.is_boundary_edge(e0),
+        });
+    };
+    for v in 0..nv {
+        if corner[v] {
+            for &e in &incident[v] {
+                if edge[e].is_none() {
+                    walk(v, e, &mut edge);
+                }
+            }
+        }
+    }
+    for e in 0..ne {
+        if is_con(e) && edge[e].is_none() {
+            let [a, _] = input.edge_vertices(e);
+            walk(a, e, &mut edge);
+        }
+    }
+    let vertex = (0..nv)
+        .map(|v| {
+            if corner[v] {
+                return None;
+            }
+            incident[v].first().and_then(|&e| edge[e])
+        })
+        .collect();
+    Chains {
+        chains,
+        edge,
+        vertex,
+        corner,
+    }
+}
+
+/// The input's (vertex-normal interpolated) unit normal at a projection.
+fn normal_at(input: &TriMesh, vn: &[DVec3], face: usize, bary: [f64; 3]) -> DVec3 {
+    if face >= input.n_faces() {
+        return DVec3::ZERO;
+    }
+    let [a, b, c] = input.face(face);
+    let n = vn[a] * bary[0] + vn[b] * bary[1] + vn[c] * bary[2];
+    let n = n.normalize_or_zero();
+    if n == DVec3::ZERO {
+        input.face_normal(face)
+    } else {
+        n
+    }
+}
+
+fn newell(p: &[DVec3], f: &[u32]) -> DVec3 {
+    let mut n = DVec3::ZERO;
+    for k in 0..f.len() {
+        let (a, b) = (p[f[k] as usize], p[f[(k + 1) % f.len()] as usize]);
+        n += a.cross(b);
+    }
+    n
+}
+
+fn min_corner_deg(p: &[DVec3], f: &[u32]) -> f64 {
+    let n = f.len();
+    (0..n)
+        .map(|k| {
+            let a = p[f[k] as usize];
+            let b = p[f[(k + 1) % n] as usize];
+            let c = p[f[(k + n - 1) % n] as usize];
+            let ang = (c - a).angle_between(b - a).to_degrees();
+            if ang.is_finite() { ang } else { 0.0 }
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Relaxes the vertices of `remesh` tangentially on `input` (see the module docs).
+/// `constrained[e]` (per input edge; may be empty) marks feature / constraint edges; boundary
+/// edges are always constrained. Polyline-only remeshes (stripes) are left as they are.
+pub fn relax(
+    remesh: &mut Remesh,
+    input: &TriMesh,
+    constrained: &[bool],
+    opts: &RelaxOptions,
+) -> RelaxStats {
+    let n = remesh.positions.len();
+    if remesh.faces.is_empty() || n == 0 || input.n_faces() == 0 || opts.iterations == 0 {
+        return RelaxStats::default();
+    }
+    let faces = &remesh.faces;
+    if faces.iter().flatten().any(|&v| v as usize >= n) {
+        return RelaxStats::default();
+    }
+    // --- remesh adjacency ---------------------------------------------------------------
+    let mut vertex_faces: Vec<Vec<u32>> = vec![Vec::new(); n];
+    let mut undirected: HashMap<(u32, u32), u32> = HashMap::new();
+    for (fi, f) in faces.iter().enumerate() {
+        for k in 0..f.len() {
+            let (a, b) = (f[k], f[(k + 1) % f.len()]);
+            if vertex_faces[a as usize].last() != Some(&(fi as u32)) {
+                vertex_faces[a as usize].push(fi as u32);
+            }
+            *undirected.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); n];
+    let mut on_boundary = vec![false; n];
+    let mut boundary_edges: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for (&(a, b), &c) in &undirected {
+        if a == b {
+            continue;
+        }
+        neighbours[a as usize].push(b);
+        neighbours[b as usize].push(a);
+        if c == 1 {
+            on_boundary[a as usize] = true;
+            on_boundary[b as usize] = true;
+            boundary_edges[a as usize].push(b);
+            boundary_edges[b as usize].push(a);
+        }
+    }
+    for l in neighbours.iter_mut().chain(boundary_edges.iter_mut()) {
+        l.sort_unstable();
+    }
+    // --- classification -------------------------------------------------------------------
+    let chains = build_chains(input, constrained, opts.corner_angle_deg);
+    let (lo, hi) = input.bounding_box();
+    let diag = (hi - lo).length().max(1e-300);
+    let start = remesh.positions.clone();
+    let nearest_boundary_chain = |p: DVec3| -> Option<(u32, u32)> {
+        let mut best: Option<(f64, u32, u32)> = None;
+        for (c, ch) in chains.chains.iter().enumerate() {
+            if !ch.boundary {
+                continue;
+            }
+            let (d2, s) = ch.project_all(p);
+            if best.is_none_or(|b| d2 < b.0) {
+                best = Some((d2, c as u32, s as u32));
+            }
+        }
+        best.filter(|b| b.0.sqrt() <= 1e-6 * diag)
+            .map(|b| (b.1, b.2))
+    };
+    let mut kind = vec![Kind::Free; n];
+    let mut seg = vec![0u32; n];
+    for v in 0..n {
+        let bd = on_boundary[v];
+        let origin = remesh.origins.get(v).copied().unwrap_or(Origin::Unknown);
+        let on_chain = match origin {
+            Origin::Vertex(u) if (u as usize) < input.n_vertices() => {
+                if chains.corner[u as usize] {
+                    kind[v] = Kind::Fixed;
+                    continue;
+                }
+                chains.vertex[u as usize]
+            }
+            Origin::Edge(e) if (e as usize) < input.n_edges() => chains.edge[e as usize],
+            _ => None,
+        };
+        let found = match on_chain {
+            Some(cs) if !bd || chains.chains[cs.0 as usize].boundary => Some(cs),
+            _ if bd => {
+                let f = nearest_boundary_chain(start[v]);
+                if f.is_none() {
+                    // a remesh boundary away from the input boundary (a patched hole)
+                    kind[v] = Kind::Fixed;
+                    continue;
+                }
+                f
+            }
+            _ => None,
+        };
+        if let Some((c, s)) = found {
+            kind[v] = Kind::Slide(c);
+            seg[v] = s;
+        }
+    }
+    // Sliding vertices need their two neighbours along the chain; otherwise they stay.
+    let chain_ends = |c: u32| {
+        let ch = &chains.chains[c as usize];
+        (ch.verts[0], ch.verts[ch.verts.len() - 1])
+    };
+    let on_same_chain = |w: usize, c: u32| match kind[w] {
+        Kind::Slide(d) => d == c,
+        Kind::Fixed => match remesh.origins.get(w) {
+            Some(Origin::Vertex(u)) => {
+                let (a, b) = chain_ends(c);
+                *u as usize == a || *u as usize == b
+            }
+            _ => false,
+        },
+        Kind::Free => false,
+    };
+    let chain_nbrs: Vec<Option<[u32; 2]>> = (0..n)
+        .map(|v| {
+            let Kind::Slide(c) = kind[v] else { return None };
+            let cand = if chains.chains[c as usize].boundary {
+                &boundary_edges[v]
+            } else {
+                &neighbours[v]
+            };
+            let list: Vec<u32> = cand
+                .iter()
+                .copied()
+                .filter(|&w| on_same_chain(w as usize, c))
+                .collect();
+            (list.len() == 2).then(|| [list[0], list[1]])
+        })
+        .collect();
+    for v in 0..n {
+        if matches!(kind[v], Kind::Slide(_)) && chain_nbrs[v].is_none() {
+            kind[v] = Kind::Fixed;
+        }
+    }
+    let mut stats = RelaxStats {
+        sliding: kind.iter().filter(|k| matches!(k, Kind::Slide(_))).count(),
+        fixed: kind.iter().filter(|k| **k == Kind::Fixed).count(),
+        free: kind.iter().filter(|k| **k == Kind::Free).count(),
+        ..Default::default()
+    };
+    // --- iterations -------------------------------------------------------------------------
+    let surface = Surface::new(input);
+    let vn = input.vertex_normals();
+    let step = opts.step.clamp(0.0, 1.0);
+    let lw = opts.laplacian_weight.clamp(0.0, 1.0);
+    let sw = opts.spring_weight.clamp(0.0, 1.0);
+    let rest = {
+        let mut edges: Vec<(u32, u32)> =
+            undirected.keys().copied().filter(|e| e.0 != e.1).collect();
+        edges.sort_unstable();
+        let p = &remesh.positions;
+        edges
+            .iter()
+            .map(|&(a, b)| (p[a as usize] - p[b as usize]).length())
+            .sum::<f64>()
+            / edges.len().max(1) as f64
+    };
+    let face_normal_ref = |p: &[DVec3], f: &[u32]| {
+        let c = f.iter().map(|&v| p[v as usize]).sum::<DVec3>() / f.len() as f64;
+        let r = surface.project(c);
+        normal_at(input, &vn, r.face, r.bary)
+    };
+    let face_state = |p: &[DVec3], f: &[u32]| {
+        let nn = newell(p, f).normalize_or_zero();
+        (nn.dot(face_normal_ref(p, f)), min_corner_deg(p, f))
+    };
+    let mut pos = remesh.positions.clone();
+    let mut state: Vec<(f64, f64)> = faces.par_iter().map(|f| face_state(&pos, f)).collect();
+    // Corner angles stay above min(what they were, this): the mesh's smallest angle never drops.
+    let angle_floor = state
+        .iter()
+        .map(|s| s.1)
+        .fold(f64::INFINITY, f64::min)
+        .max(opts.min_angle_deg);
+    for _ in 0..opts.iterations {
+        stats.iterations += 1;
+        let updates: Vec<(DVec3, u32)> = (0..n)
+            .into_par_iter()
+            .map(|v| {
+                let p = pos[v];
+                match kind[v] {
+                    Kind::Fixed => (p, seg[v]),
+                    Kind::Slide(c) => {
+                        let [a, b] = chain_nbrs[v].unwrap_or([v as u32; 2]);
+                        let target = 0.5 * (pos[a as usize] + pos[b as usize]);
+                        let q = p + step * (target - p);
+                        let ch = &chains.chains[c as usize];
+                        let (np, s) = ch.project_near(q, seg[v] as usize, 2.0 * (q - p).length());
+                        (np, s as u32)
+                    }
+                    Kind::Free => {
+                        let here = surface.project(p);
+                        let nrm = normal_at(input, &vn, here.face, here.bary);
+                        let nb = &neighbours[v];
+                        if nb.is_empty() {
+                            return (p, 0);
+                        }
+                        let lap =
+                            nb.iter().map(|&w| pos[w as usize]).sum::<DVec3>() / nb.len() as f64;
+                        let mut ideal = DVec3::ZERO;
+                        let mut count = 0.0;
+                        for &fi in &vertex_faces[v] {
+                            let f = &faces[fi as usize];
+                            let m = f.len();
+                            let Some(k) = f.iter().position(|&x| x as usize == v) else {
+                                continue;
+                            };
+                            let a = pos[f[(k + 1) % m] as usize];
+                            let c = pos[f[(k + m - 1) % m] as usize];
+                            let t = match m {
+                                // equilateral apex over (a, c) on v's side
+                                3 => {
+                                    let d = c - a;
+                                    let side = nrm.cross(d).normalize_or_zero();
+                                    0.5 * (a + c) + side * (0.75f64.sqrt() * d.length())
+                                }
+                                // square over the diagonal (a, c)
+                                4 => {
+                                    let mid = 0.5 * (a + c);
+                                    mid + nrm.cross(0.5 * (c - a))
+                                }
+                                _ => continue,
+                            };
+                            ideal += t;
+                            count += 1.0;
+                        }
+                        let shape = if count > 0.0 {
+                            lw * lap + (1.0 - lw) * ideal / count
+                        } else {
+                            lap
+                        };
+                        let spring = p + nb
+                            .iter()
+                            .map(|&w| {
+                                let e = pos[w as usize] - p;
+                                let l = e.length();
+                                if l > 0.0 {
+                                    e * ((l - rest) / l)
+                                } else {
+                                    DVec3::ZERO
+                                }
+                            })
+                            .sum::<DVec3>()
+                            / nb.len() as f64;
+                        let target = (1.0 - sw) * shape + sw * spring;
+                        let mut d = target - p;
+                        d -= nrm * d.dot(nrm);
+                        (surface.closest(p + step * d).0, 0)
+                    }
+                }
+            })
+            .collect();
+        let old = pos.clone();
+        let mut reverted = vec![false; n];
+        for v in 0..n {
+            pos[v] = updates[v].0;
+        }
+        // Put back the vertices of faces made worse, until none is.
+        let mut check: Vec<u32> = (0..faces.len() as u32).collect();
+        let mut new_state = state.clone();
+        while !check.is_empty() {
+            let results: Vec<(u32, (f64, f64))> = check
+                .par_iter()
+                .map(|&fi| (fi, face_state(&pos, &faces[fi as usize])))
+                .collect();
+            let mut bad_vertices = Vec::new();
+            for (fi, (cos, ang)) in results {
+                let (cos0, ang0) = state[fi as usize];
+                new_state[fi as usize] = (cos, ang);
+                let worse = cos < cos0.min(0.2) || ang < ang0.min(angle_floor);
+                if worse {
+                    for &v in &faces[fi as usize] {
+                        if !reverted[v as usize] && pos[v as usize] != old[v as usize] {
+                            reverted[v as usize] = true;
+                            bad_vertices.push(v);
+                        }
+                    }
+                }
+            }
+            let mut next: Vec<u32> = Vec::new();
+            for &v in &bad_vertices {
+                pos[v as usize] = old[v as usize];
+                stats.rejected += 1;
+                next.extend_from_slice(&vertex_faces[v as usize]);
+            }
+            next.sort_unstable();
+            next.dedup();
+            check = next;
+        }
+        state = new_state;
+        for v in 0..n {
+            if !reverted[v] {
+                seg[v] = updates[v].1;
+            }
+        }
+    }
+    for v in 0..n {
+        if pos[v] != start[v] {
+            stats.moved += 1;
+            stats.max_offset = stats.max_offset.max((pos[v] - start[v]).length());
+        }
+    }
+    remesh.positions = pos;
+    stats
+}
