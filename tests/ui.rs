@@ -37,6 +37,33 @@ fn harness_with(
     builder.build_eframe(move |cc| EditorApp::new(cc, opts))
 }
 
+/// A fresh editor on a shared mesh (its recent-files list in a temporary folder, returned to
+/// keep it), with the mesh loaded and, with `auto_solve`, its field, parameterization and
+/// remesh computed.
+fn editor_on(mesh: &str, auto_solve: bool) -> (tempfile::TempDir, Harness<'static, EditorApp>) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut h = harness_with(
+        &dir.path().join("recent.txt"),
+        Some(shared_mesh(mesh)),
+        auto_solve,
+    );
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    (dir, h)
+}
+
+/// Like [`editor_on`] with auto-solve, on a copy of the shared mesh in the temporary folder
+/// (projects are saved beside it); returns the copy's path too.
+fn editor_on_copy(mesh: &str) -> (tempfile::TempDir, PathBuf, Harness<'static, EditorApp>) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join(mesh);
+    std::fs::copy(shared_mesh(mesh), &path).expect("copy the mesh");
+    let mut h = harness_with(&dir.path().join("recent.txt"), Some(path.clone()), true);
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    (dir, path, h)
+}
+
 /// Whether a wgpu adapter exists. Without one the UI tests still run (the
 /// viewport shows a notice), unless QUADCOVER_REQUIRE_GPU=1 makes it a failure.
 fn gpu_available() -> bool {
@@ -105,12 +132,7 @@ fn starts_with_default_mesh_and_loads_a_shared_mesh() {
 
 #[test]
 fn switches_display_mode_pattern_and_shading() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let mut h = harness(
-        &dir.path().join("recent.txt"),
-        Some(shared_mesh("kitten.obj")),
-    );
-    settle(&mut h);
+    let (dir, mut h) = editor_on("kitten.obj", false);
 
     // the real solvers, as background jobs: field, then QuadCover
     h.get_by_label("Compute field").click();
@@ -220,12 +242,7 @@ fn switches_display_mode_pattern_and_shading() {
 
 #[test]
 fn bad_file_shows_error_and_editor_keeps_running() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let mut h = harness(
-        &dir.path().join("recent.txt"),
-        Some(shared_mesh("kitten.obj")),
-    );
-    settle(&mut h);
+    let (dir, mut h) = editor_on("kitten.obj", false);
 
     let bad = dir.path().join("broken.obj");
     std::fs::write(&bad, "v 0 0 0\nv 1 0 0\nf 1 2 9\nthis is not obj\n").expect("write");
@@ -270,12 +287,7 @@ fn bad_file_shows_error_and_editor_keeps_running() {
 
 #[test]
 fn results_for_a_replaced_mesh_are_discarded() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let mut h = harness(
-        &dir.path().join("recent.txt"),
-        Some(shared_mesh("kitten.obj")),
-    );
-    settle(&mut h);
+    let (_dir, mut h) = editor_on("kitten.obj", false);
     let ctx = h.ctx.clone();
     h.state_mut().start_field(Some(ctx.clone()), 4);
     h.state_mut().open_path(&shared_mesh("spot.obj"), Some(ctx));
@@ -519,13 +531,7 @@ fn press(h: &mut Harness<'static, EditorApp>, pos: egui::Pos2, pressed: bool) {
 /// release: one edit, re-solved in the background; undo and redo restore the states exactly.
 #[test]
 fn dragging_a_singularity_moves_it_and_undo_redo_restore_it() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let mut h = harness_with(
-        &dir.path().join("recent.txt"),
-        Some(shared_mesh("spot.obj")),
-        true,
-    );
-    settle(&mut h);
+    let (_dir, mut h) = editor_on("spot.obj", true);
     assert!(h.state().error.is_none(), "{:?}", h.state().error);
     let before = singularities(&h);
     let uv_before = uvs(&h);
@@ -675,13 +681,7 @@ fn dragging_a_singularity_moves_it_and_undo_redo_restore_it() {
 /// Rapid edits coalesce: only the newest state is solved and shown; Relax runs in the job.
 #[test]
 fn rapid_edits_coalesce_and_relax_runs_in_the_background() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let mut h = harness_with(
-        &dir.path().join("recent.txt"),
-        Some(shared_mesh("spot.obj")),
-        true,
-    );
-    settle(&mut h);
+    let (_dir, mut h) = editor_on("spot.obj", true);
     let before = singularities(&h);
     let curl_before = h.state().document.parameterization.as_ref().unwrap().curl;
     // Relax, undo, redo, in the same frame: one solve for the last revision
@@ -713,11 +713,7 @@ fn rapid_edits_coalesce_and_relax_runs_in_the_background() {
 /// file with unsaved changes asks first.
 #[test]
 fn projects_save_reopen_and_broken_ones_keep_the_document() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let mesh = dir.path().join("spot.obj");
-    std::fs::copy(shared_mesh("spot.obj"), &mesh).expect("copy the mesh");
-    let mut h = harness_with(&dir.path().join("recent.txt"), Some(mesh.clone()), true);
-    settle(&mut h);
+    let (dir, mesh, mut h) = editor_on_copy("spot.obj");
     // an edit through the document API (the drag test covers the gesture)
     let edit = move_to_free_neighbour(&h);
     h.state_mut().commit_edit(edit.clone());
@@ -863,11 +859,7 @@ fn projects_save_reopen_and_broken_ones_keep_the_document() {
 /// longer applies is skipped with a visible notice; closing with unsaved changes asks first.
 #[test]
 fn settings_replay_the_edits_and_skipped_edits_are_shown() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let mesh = dir.path().join("spot.obj");
-    std::fs::copy(shared_mesh("spot.obj"), &mesh).expect("copy the mesh");
-    let mut h = harness_with(&dir.path().join("recent.txt"), Some(mesh.clone()), true);
-    settle(&mut h);
+    let (dir, _mesh, mut h) = editor_on_copy("spot.obj");
     let (good, free, not_singular) = {
         let (base, state) = h.state().document.editable().unwrap();
         let (&p, _) = state.singularities.iter().next().unwrap();
@@ -1014,13 +1006,7 @@ fn drag_glyph(h: &mut Harness<'static, EditorApp>, sp: egui::Pos2, sq: egui::Pos
 /// tooltip and then the notice say why, and nothing is committed.
 #[test]
 fn dragging_onto_another_singularity_merges_or_says_why_not() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let mut h = harness_with(
-        &dir.path().join("recent.txt"),
-        Some(shared_mesh("spot.obj")),
-        true,
-    );
-    settle(&mut h);
+    let (_dir, mut h) = editor_on("spot.obj", true);
     let before = singularities(&h);
     let base = h.state().document.edit_base.clone().unwrap();
     let (p, q, sp, sq) = find_pair(h.state(), |a, b| a == -b).expect("an opposite pair on screen");
@@ -1064,13 +1050,7 @@ fn dragging_onto_another_singularity_merges_or_says_why_not() {
 /// job runs), bit for bit the same map.
 #[test]
 fn undo_and_redo_show_remembered_solves_at_once() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let mut h = harness_with(
-        &dir.path().join("recent.txt"),
-        Some(shared_mesh("spot.obj")),
-        true,
-    );
-    settle(&mut h);
+    let (_dir, mut h) = editor_on("spot.obj", true);
     let uv_bits = |h: &Harness<'static, EditorApp>| -> Vec<[u64; 2]> {
         let p = h.state().document.parameterization.as_ref().unwrap();
         p.uv.iter()
@@ -1173,11 +1153,7 @@ fn last_added(h: &Harness<'static, EditorApp>) -> (u32, Vec<usize>, bool, CurveK
 /// saves and reopens with the same curves.
 #[test]
 fn curves_are_drawn_retyped_deleted_undone_and_saved() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let mesh_path = dir.path().join("spot.obj");
-    std::fs::copy(shared_mesh("spot.obj"), &mesh_path).expect("copy the mesh");
-    let mut h = harness_with(&dir.path().join("recent.txt"), Some(mesh_path), true);
-    settle(&mut h);
+    let (dir, _mesh_path, mut h) = editor_on_copy("spot.obj");
     assert!(h.state().error.is_none(), "{:?}", h.state().error);
     h.get_by_label("Draw curves").click();
     h.run_steps(2);
@@ -1431,13 +1407,7 @@ fn curves_are_drawn_retyped_deleted_undone_and_saved() {
 /// loops as curves and removes them again.
 #[test]
 fn sharp_features_are_previewed_and_detected_and_boundaries_aligned() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let mut h = harness_with(
-        &dir.path().join("recent.txt"),
-        Some(shared_mesh("fandisk.obj")),
-        true,
-    );
-    settle(&mut h);
+    let (_dir, mut h) = editor_on("fandisk.obj", true);
     assert!(h.state().error.is_none(), "{:?}", h.state().error);
     let mesh = h.state().document.mesh.clone().unwrap();
     assert_eq!(h.state().curves.feature_angle, 35.0);
@@ -1558,13 +1528,7 @@ fn sharp_features_are_previewed_and_detected_and_boundaries_aligned() {
 /// and shown as the notice while the last good result stays; removing the curve solves again.
 #[test]
 fn contradictory_curves_are_shown_and_the_last_good_result_stays() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let mut h = harness_with(
-        &dir.path().join("recent.txt"),
-        Some(shared_mesh("spot.obj")),
-        true,
-    );
-    settle(&mut h);
+    let (_dir, mut h) = editor_on("spot.obj", true);
     let uv_before = uvs(&h);
     let edit = {
         let (base, state) = h.state().document.editable().unwrap();
@@ -1620,13 +1584,7 @@ fn a_contradiction_outcome_is_a_failed_solve_with_red_curves() {
     use quadcover::app::curves::{CONTRADICTION_COLOR, GEOMETRIC_COLOR};
     use quadcover::app::document::SolveOutcome;
     use quadcover::app::jobs::{Job, JobOutput};
-    let dir = tempfile::tempdir().expect("tempdir");
-    let mut h = harness_with(
-        &dir.path().join("recent.txt"),
-        Some(shared_mesh("spot.obj")),
-        true,
-    );
-    settle(&mut h);
+    let (_dir, mut h) = editor_on("spot.obj", true);
     let edit = {
         let (base, _) = h.state().document.editable().unwrap();
         let path = quadcover::constraint::shortest_edge_path(base.mesh(), 0, 40).unwrap();
@@ -1727,13 +1685,7 @@ fn fold_pixels(img: &image::RgbaImage) -> usize {
 fn the_folds_overlay_counts_and_draws_the_folded_faces() {
     use quadcover::app::folds::FOLD_COLOR;
     use quadcover::param::folded_faces;
-    let dir = tempfile::tempdir().expect("tempdir");
-    let mut h = harness_with(
-        &dir.path().join("recent.txt"),
-        Some(shared_mesh("spot.obj")),
-        true,
-    );
-    settle(&mut h);
+    let (_dir, mut h) = editor_on("spot.obj", true);
     assert!(h.state().error.is_none(), "{:?}", h.state().error);
     assert!(!h.state().document.display.show_folds, "off by default");
     assert!(h.query_by_label_contains("folded face").is_none());
@@ -1819,13 +1771,7 @@ fn the_folds_overlay_counts_and_draws_the_folded_faces() {
 /// again repairs them, and the summary gives the count before the repair and its time.
 #[test]
 fn untangle_folds_is_a_solve_setting() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let mut h = harness_with(
-        &dir.path().join("recent.txt"),
-        Some(shared_mesh("spot.obj")),
-        true,
-    );
-    settle(&mut h);
+    let (_dir, mut h) = editor_on("spot.obj", true);
     assert!(h.state().error.is_none(), "{:?}", h.state().error);
     assert!(!h.state().document.settings.no_untangle);
     let revision = h.state().document.edit_revision();
@@ -1900,4 +1846,344 @@ fn untangle_folds_is_a_solve_setting() {
     } else {
         eprintln!("spot's global step left no folds: the repair had nothing to do");
     }
+}
+
+// ---- the remesh: background extraction, display modes, quality window -------------------------
+
+use quadcover::app::jobs::{Job, JobOutput};
+use quadcover::app::quality_panel::{ANGLE_PLOT, LENGTH_PLOT, QUALITY_WINDOW, plot_id};
+use quadcover::app::remesh::{
+    EDGE_COLOR, FEWER_COLOR, MORE_COLOR, RemeshRequest, RemeshResult, RemeshView, sides_name,
+};
+use quadcover::app::settings::RemeshDisplay;
+use quadcover::extract::{ExtractOptions, RemeshQuality, remesh_report};
+
+/// What the core extracts from the document's parameterization (the editor must show this).
+fn core_remesh(h: &Harness<'static, EditorApp>) -> (quadcover::extract::Remesh, RemeshQuality) {
+    let doc = &h.state().document;
+    let mesh = doc.mesh.clone().expect("a mesh");
+    let p = doc.parameterization.as_ref().expect("a parameterization");
+    remesh_report(&mesh, &p.uv, p.symmetry as u8, &ExtractOptions::default())
+        .expect("the core extracts the map")
+}
+
+fn shown_remesh(h: &Harness<'static, EditorApp>) -> Arc<RemeshView> {
+    h.state()
+        .document
+        .remesh
+        .clone()
+        .expect("the remesh of the map shown")
+}
+
+/// Chooses a remesh display mode in the side panel's combo box.
+fn choose_remesh_display(h: &mut Harness<'static, EditorApp>, mode: RemeshDisplay) {
+    h.get_by_label("Remesh").click();
+    h.run_steps(2);
+    h.get_by_label(mode.label()).click();
+    h.run_steps(2);
+    assert_eq!(h.state().document.display.remesh, mode);
+}
+
+/// After the solve the remesh is extracted in the background: the side panel sums it up, the
+/// quality window (closed until asked) shows the numbers the core gives for the same map, and
+/// both histograms; after the next solve (an edit) it is the new map's, and undo and redo show
+/// the remembered remeshes at once.
+#[test]
+fn the_remesh_is_extracted_after_every_solve_and_its_quality_shown() {
+    let (_dir, mut h) = editor_on("spot.obj", true);
+    let (_, q) = core_remesh(&h);
+    let view = shown_remesh(&h);
+    assert_eq!(view.quality.faces, q.faces);
+    assert_eq!(view.quality.vertices, q.vertices);
+    assert_eq!(view.quality.faces_by_sides, q.faces_by_sides);
+    assert_eq!(view.quality.irregular_vertices, q.irregular_vertices);
+    assert_eq!(view.irregular.len(), q.irregular_vertices);
+    let input_faces = h.state().document.stats.as_ref().unwrap().faces;
+    assert!(
+        q.faces > 1000 && q.faces != input_faces,
+        "{} remesh faces",
+        q.faces
+    );
+    assert!(h.state().document.remesh_error.is_none());
+    assert!(
+        !h.state().jobs.iter().any(|j| j.param_revision.is_some()),
+        "the extraction ran as a job and ended"
+    );
+
+    // the side panel: the display mode (off by default) and the summary
+    assert_eq!(h.state().document.display.remesh, RemeshDisplay::Off);
+    h.get_by_label("Remesh");
+    h.get_by_label(&format!(
+        "{} faces ({} quads), {} irregular vertices",
+        q.faces, q.faces_by_sides[&4], q.irregular_vertices
+    ));
+
+    // the quality window
+    assert!(h.query_by_label(QUALITY_WINDOW).is_none());
+    h.get_by_label("Quality").click();
+    h.run_steps(3);
+    h.get_by_label(QUALITY_WINDOW);
+    h.get_by_label(&format!("Faces: {}", q.faces));
+    h.get_by_label(&format!("Vertices: {}", q.vertices));
+    h.get_by_label(&format!(
+        "Irregular vertices: {} (interior valence != 4)",
+        q.irregular_vertices
+    ));
+    h.get_by_label(&format!("RSD edge: {:.2} %", 100.0 * q.rsd_edge));
+    h.get_by_label(&format!("RSD angle: {:.2} %", 100.0 * q.rsd_angle));
+    h.get_by_label(&format!("Patched places: {}", q.patched_places));
+    let mut by_sides: Vec<(usize, usize)> =
+        q.faces_by_sides.iter().map(|(&s, &c)| (s, c)).collect();
+    by_sides.sort_by_key(|&(s, c)| (std::cmp::Reverse(c), s));
+    let by_sides: Vec<String> = by_sides
+        .into_iter()
+        .map(|(s, c)| sides_name(s, c))
+        .collect();
+    h.get_by_label(&format!("By sides: {}", by_sides.join(", ")));
+    h.get_by_label_contains(&format!("Mean distance: {:.2e}", q.mean_distance));
+    // the histograms: both plots, the ideal angle marked (a legend entry), bounds over 0..180°
+    h.get_by_label(ANGLE_PLOT);
+    h.get_by_label(LENGTH_PLOT);
+    h.get_by_label("ideal 90°");
+    let memory = egui_plot::PlotMemory::load(&h.ctx, plot_id(ANGLE_PLOT)).expect("plot shown");
+    assert!(memory.bounds().min()[0] <= 0.0 && memory.bounds().max()[0] >= 180.0);
+    let corners: usize = q.faces_by_sides.iter().map(|(s, c)| s * c).sum();
+    assert_eq!(
+        view.angles.total(),
+        corners,
+        "every corner in the histogram"
+    );
+    save_render(&mut h, "ui_remesh_quality.png");
+
+    // the next solve: the new map's remesh, in the panel too
+    let edit = move_to_free_neighbour(&h);
+    h.state_mut().commit_edit(edit);
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    let (_, q2) = core_remesh(&h);
+    let view2 = shown_remesh(&h);
+    assert!(!Arc::ptr_eq(&view, &view2), "extracted again");
+    assert_eq!(view2.quality.faces, q2.faces);
+    assert_eq!(view2.quality.irregular_vertices, q2.irregular_vertices);
+    h.get_by_label(&format!("Faces: {}", q2.faces));
+    // closing the window
+    h.get_by_label("View").click();
+    h.run_steps(2);
+    h.get_by_label("Remesh quality window").click();
+    h.run_steps(2);
+    assert!(!h.state().remesh.show_quality);
+    assert!(h.query_by_label(&format!("Faces: {}", q2.faces)).is_none());
+    // undo: the remembered solve with its remesh at once, no extraction
+    h.state_mut().undo();
+    assert!(!h.state().busy(), "undo started a job");
+    assert!(Arc::ptr_eq(&shown_remesh(&h), &view));
+    h.state_mut().redo();
+    assert!(!h.state().busy(), "redo started a job");
+    assert!(Arc::ptr_eq(&shown_remesh(&h), &view2));
+}
+
+/// Pixels of the remesh edges' colour ([`EDGE_COLOR`], sRGB-encoded about (39, 56, 196)).
+fn remesh_blue_pixels(img: &image::RgbaImage) -> usize {
+    img.pixels()
+        .filter(|p| p[2] > 150 && p[0] < 90 && p[1] < 110 && p[2] as i32 - p[1] as i32 > 90)
+        .count()
+}
+
+fn differing_pixels(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {
+    a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
+}
+
+/// Off draws nothing of the remesh; *Edges over surface* draws each of its edges once (and
+/// its irregular vertices as dots) over the surface; *Remesh only* draws its polygons instead
+/// of the surface; off again gives the first picture back.
+#[test]
+fn the_remesh_display_mode_changes_what_is_drawn() {
+    let (_dir, mut h) = editor_on("spot.obj", true);
+    let view = shown_remesh(&h);
+    let edges = quadcover::extract::edge_lengths(&view.remesh).len();
+    assert!(h.state().remesh_overlay().is_none());
+    assert!(h.state().remesh_surface().is_none());
+    let off = gpu_available().then(|| h.render().expect("render"));
+
+    choose_remesh_display(&mut h, RemeshDisplay::Edges);
+    let overlay = h.state().remesh_overlay().expect("the remesh is drawn");
+    assert_eq!(overlay.fine_lines.len(), edges, "each edge once");
+    assert!(overlay.fine_lines.iter().all(|l| l.color == EDGE_COLOR));
+    assert_eq!(overlay.dots.len(), view.quality.irregular_vertices);
+    assert_eq!(
+        overlay
+            .dots
+            .iter()
+            .filter(|d| d.color == FEWER_COLOR)
+            .count(),
+        view.fewer
+    );
+    assert!(
+        overlay
+            .dots
+            .iter()
+            .all(|d| d.color == FEWER_COLOR || d.color == MORE_COLOR)
+    );
+    assert!(
+        h.state().remesh_surface().is_none(),
+        "the surface is the input's"
+    );
+    h.get_by_label_contains(&format!("{} with < 4 edges", view.fewer));
+    let edges_img = gpu_available().then(|| h.render().expect("render"));
+    save_render(&mut h, "ui_remesh_edges.png");
+
+    choose_remesh_display(&mut h, RemeshDisplay::Only);
+    assert!(
+        h.state().remesh_overlay().is_some(),
+        "its edges are drawn too"
+    );
+    let (key, surface) = h.state().remesh_surface().expect("the polygons are drawn");
+    assert_eq!(key, view.id);
+    let fan: usize = view.remesh.faces.iter().map(|f| f.len() - 2).sum();
+    assert_eq!(surface.n_faces(), fan);
+    let only = gpu_available().then(|| h.render().expect("render"));
+    save_render(&mut h, "ui_remesh_only.png");
+
+    choose_remesh_display(&mut h, RemeshDisplay::Off);
+    assert!(h.state().remesh_overlay().is_none());
+    assert!(h.state().remesh_surface().is_none());
+    if let (Some(off), Some(edges_img), Some(only)) = (off, edges_img, only) {
+        let off_again = h.render().expect("render");
+        let (blue_off, blue_on) = (remesh_blue_pixels(&off), remesh_blue_pixels(&edges_img));
+        assert!(
+            blue_on > blue_off + 2000,
+            "remesh edge pixels: {blue_off} off, {blue_on} on"
+        );
+        let changed = differing_pixels(&edges_img, &only);
+        assert!(changed > 5000, "remesh only changed {changed} pixels");
+        let back = differing_pixels(&off, &off_again);
+        assert!(back < 200, "off again differs in {back} pixels");
+    }
+}
+
+/// Results for another parameterization (an older revision) are dropped; a failed extraction
+/// keeps the last good remesh and says why in the status line and the panel; an extraction for a
+/// replaced map is flagged cancelled and the newest map's remesh is the one shown.
+#[test]
+fn stale_remesh_results_are_dropped_and_failures_keep_the_last_good_one() {
+    let (_dir, mut h) = editor_on("spot.obj", true);
+    let view = shown_remesh(&h);
+    let (generation, revision) = {
+        let doc = &h.state().document;
+        (doc.generation(), doc.param_revision())
+    };
+    // an extraction of an older revision, as a job's result: dropped
+    let mut stale = RemeshRequest::for_document(&h.state().document).unwrap();
+    stale
+        .uv
+        .iter_mut()
+        .for_each(|uv| *uv = [2.0 * uv[0], 2.0 * uv[1]]);
+    stale.param_revision = revision - 1;
+    h.state_mut().jobs.push(
+        Job::spawn("Extracting the remesh", None, move |_| {
+            Ok(JobOutput::Remeshed(Box::new(stale.run())))
+        })
+        .for_generation(generation)
+        .for_param(revision - 1),
+    );
+    settle(&mut h);
+    assert!(
+        Arc::ptr_eq(&shown_remesh(&h), &view),
+        "the stale result was taken"
+    );
+    assert!(h.state().document.remesh_error.is_none());
+    // and through the document: refused
+    let refused = RemeshResult {
+        generation,
+        param_revision: revision + 7,
+        outcome: Err("stale".into()),
+    };
+    assert!(!h.state_mut().document.take_remesh(refused));
+
+    // a failed extraction of the current map (injected): the last good remesh stays
+    h.state_mut().jobs.push(
+        Job::spawn("Extracting the remesh", None, move |_| {
+            Ok(JobOutput::Remeshed(Box::new(RemeshResult {
+                generation,
+                param_revision: revision,
+                outcome: Err("injected failure".into()),
+            })))
+        })
+        .for_generation(generation)
+        .for_param(revision),
+    );
+    settle(&mut h);
+    assert!(Arc::ptr_eq(&shown_remesh(&h), &view));
+    assert_eq!(
+        h.state().document.remesh_error.as_deref(),
+        Some("injected failure")
+    );
+    assert_eq!(
+        h.state().status,
+        "Remesh extraction failed (the last good remesh is shown): injected failure"
+    );
+    h.get_by_label("Remesh extraction failed: injected failure");
+
+    // a real failure: a map that is not seamless (every 9th texture triangle mirrored)
+    let p = h.state().document.parameterization.clone().unwrap();
+    let mut broken = p.clone();
+    for f in (0..broken.uv.len() / 3).step_by(9) {
+        broken.uv.swap(3 * f + 1, 3 * f + 2);
+    }
+    h.state_mut().document.set_parameterization(broken, true);
+    settle(&mut h);
+    let error = h.state().document.remesh_error.clone().expect("it failed");
+    assert!(error.contains("not seamless"), "{error}");
+    assert!(
+        Arc::ptr_eq(&shown_remesh(&h), &view),
+        "the last good remesh stays"
+    );
+    assert!(
+        h.state().status.contains("not seamless"),
+        "{}",
+        h.state().status
+    );
+
+    // two maps in a row: the first one's extraction is flagged cancelled when the second
+    // arrives, and the second's remesh (the first map moved by a lattice vector: the same mesh)
+    // is extracted after it and shown
+    let map = |f: &dyn Fn([f64; 2]) -> [f64; 2]| {
+        let mut q = p.clone();
+        q.uv.iter_mut().for_each(|uv| *uv = f(*uv));
+        q
+    };
+    let doubled = map(&|uv| [2.0 * uv[0], 2.0 * uv[1]]);
+    let shifted = map(&|uv| [uv[0] + 1.0, uv[1]]);
+    h.state_mut().document.set_parameterization(doubled, true);
+    h.step();
+    let extractions = |h: &Harness<'static, EditorApp>| -> Vec<(u64, bool)> {
+        h.state()
+            .jobs
+            .iter()
+            .filter_map(|j| Some((j.param_revision?, j.cancelled())))
+            .collect()
+    };
+    let doubled_revision = h.state().document.param_revision();
+    assert_eq!(extractions(&h), vec![(doubled_revision, false)]);
+    h.state_mut().document.set_parameterization(shifted, true);
+    h.step();
+    let running = extractions(&h);
+    assert!(
+        running == vec![(doubled_revision, true)]
+            || running.is_empty()
+            || running[0].0 > doubled_revision,
+        "one extraction at a time, the replaced one cancelled: {running:?}"
+    );
+    settle(&mut h);
+    let last = shown_remesh(&h);
+    assert!(h.state().document.remesh_error.is_none());
+    assert_eq!(
+        last.quality.faces, view.quality.faces,
+        "the newest map's remesh"
+    );
+    assert!(!Arc::ptr_eq(&last, &view), "extracted again");
+    // back to the first map: its remesh is remembered, no extraction
+    h.state_mut().document.set_parameterization(p.clone(), true);
+    assert!(!h.state().busy());
+    assert!(Arc::ptr_eq(&shown_remesh(&h), &view));
 }

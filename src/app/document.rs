@@ -376,6 +376,18 @@ pub struct SolveInfo {
     pub timings: Vec<(String, f64)>,
 }
 
+/// A hash of a parameterization's symmetry and UVs (bit for bit): the key of its remesh.
+fn param_key(p: &crate::param::Parameterization) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::hash::DefaultHasher::new();
+    p.symmetry.hash(&mut h);
+    for uv in &p.uv {
+        uv[0].to_bits().hash(&mut h);
+        uv[1].to_bits().hash(&mut h);
+    }
+    h.finish()
+}
+
 /// The panel's one-line summary of a field.
 fn field_summary(display: &FieldDisplay, e_smooth: f64) -> String {
     format!(
@@ -407,6 +419,19 @@ pub struct Document {
     pub frame_field: Option<crate::field::FrameField>,
     /// The core parameterization result.
     pub parameterization: Option<crate::param::Parameterization>,
+    /// The remesh of `parameterization` last extracted ([`super::remesh`]): kept while a newer
+    /// one is extracted, and when that fails (`remesh_error` says why).
+    pub remesh: Option<Arc<super::remesh::RemeshView>>,
+    /// Why the last extraction failed (`None` after a good one).
+    pub remesh_error: Option<String>,
+    /// The parameterization revision whose extraction has concluded (or whose remesh was
+    /// remembered): while it is not the current one, an extraction is due.
+    remesh_for: Option<u64>,
+    /// The last few remeshes by their map's key ([`param_key`]): undo and redo back to a
+    /// remembered solve show its remesh at once too.
+    remesh_cache: Vec<(u64, Arc<super::remesh::RemeshView>)>,
+    /// The key of `parameterization`.
+    param_key: u64,
     /// QuadCover's symbolic analyses for this mesh (they depend on the mesh only): every
     /// re-solve after the first, whatever the field or symmetry, does numeric work only.
     pub param_analysis: Option<Arc<crate::param::ParamAnalysis>>,
@@ -443,6 +468,8 @@ pub struct Document {
     /// (applied edits, settings) at the last save or open: unsaved changes are a difference.
     saved: (Vec<Edit>, Settings),
     edit_revision: u64,
+    /// Increases whenever `parameterization` is replaced or cleared.
+    param_revision: u64,
     scene: Option<Arc<SceneData>>,
     generation: u64,
     /// Base scene without field/param/overlays (rebuilt from the mesh once per load).
@@ -466,6 +493,11 @@ impl Default for Document {
             folds: None,
             frame_field: None,
             parameterization: None,
+            remesh: None,
+            remesh_error: None,
+            remesh_for: None,
+            remesh_cache: Vec::new(),
+            param_key: 0,
             param_analysis: None,
             field_summary: String::new(),
             param_summary: String::new(),
@@ -485,6 +517,7 @@ impl Default for Document {
             project_path: None,
             saved: (Vec::new(), Settings::default()),
             edit_revision: 1,
+            param_revision: 1,
             scene: None,
             generation: 0,
             base_scene: None,
@@ -509,7 +542,8 @@ impl Document {
         self.param = None;
         self.folds = None;
         self.frame_field = None;
-        self.parameterization = None;
+        self.clear_parameterization();
+        self.remesh_cache.clear();
         self.param_analysis = None;
         self.field_summary.clear();
         self.param_summary.clear();
@@ -868,7 +902,7 @@ impl Document {
         let display = FieldDisplay::from_frame_field(&result.field, sing);
         self.field_summary = field_summary(&display, result.e_smooth);
         self.frame_field = Some(result.field);
-        self.parameterization = None;
+        self.clear_parameterization();
         self.param = None;
         self.folds = None;
         self.param_summary.clear();
@@ -916,8 +950,69 @@ impl Document {
         self.param = Some(ParamDisplay {
             corner_uvs: p.uv.clone(),
         });
+        self.param_key = param_key(&p);
         self.parameterization = Some(p);
+        self.param_revision += 1;
+        let remembered = self
+            .remesh_cache
+            .iter()
+            .find(|(k, _)| *k == self.param_key)
+            .map(|(_, r)| r.clone());
+        if let Some(r) = remembered {
+            self.remesh = Some(r);
+            self.remesh_error = None;
+            self.remesh_for = Some(self.param_revision);
+        }
         self.set_lines(LineKind::CutGraph, segs);
+    }
+
+    /// Drops the parameterization and its remesh.
+    fn clear_parameterization(&mut self) {
+        self.parameterization = None;
+        self.remesh = None;
+        self.remesh_error = None;
+        self.remesh_for = None;
+        self.param_revision += 1;
+    }
+
+    /// Whether the parameterization shown has its remesh (or its extraction failed), or there
+    /// is none: no extraction is due.
+    pub fn remesh_current(&self) -> bool {
+        self.parameterization.is_none() || self.remesh_for == Some(self.param_revision)
+    }
+
+    /// Increases whenever the parameterization is replaced or cleared: a remesh extraction
+    /// carries the revision it extracts, and results for another one are stale.
+    pub fn param_revision(&self) -> u64 {
+        self.param_revision
+    }
+
+    /// Takes a remesh extraction's result; `false` (and nothing changes) when it is stale (for
+    /// another mesh or parameterization). A failed extraction keeps the last good remesh and
+    /// sets [`Document::remesh_error`].
+    pub fn take_remesh(&mut self, result: super::remesh::RemeshResult) -> bool {
+        if result.generation != self.generation
+            || result.param_revision != self.param_revision
+            || self.parameterization.is_none()
+        {
+            return false;
+        }
+        self.remesh_for = Some(self.param_revision);
+        match result.outcome {
+            Ok(view) => {
+                let view = Arc::new(view);
+                // about two million faces' worth, between 2 and 8
+                let keep = (2_000_000 / view.quality.faces.max(1)).clamp(2, 8);
+                self.remesh_cache.retain(|(k, _)| *k != self.param_key);
+                self.remesh_cache.push((self.param_key, view.clone()));
+                let excess = self.remesh_cache.len().saturating_sub(keep);
+                self.remesh_cache.drain(..excess);
+                self.remesh = Some(view);
+                self.remesh_error = None;
+            }
+            Err(e) => self.remesh_error = Some(e),
+        }
+        true
     }
 
     /// Sets (or clears) the parameterization.

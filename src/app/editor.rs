@@ -79,6 +79,8 @@ pub struct EditorApp {
     pub curves: super::curves::CurvesUi,
     /// The fold overlay's cache ([`super::folds`]).
     pub(super) folds: super::folds::FoldsUi,
+    /// The remesh extraction and the quality window ([`super::remesh`]).
+    pub remesh: super::remesh::RemeshUi,
     /// An action waiting for the answer to "save the unsaved changes?".
     pub confirm: Option<PendingAction>,
     /// The user chose to close without saving.
@@ -132,6 +134,7 @@ impl EditorApp {
             parked_tools: Vec::new(),
             curves: Default::default(),
             folds: Default::default(),
+            remesh: Default::default(),
             confirm: None,
             allow_close: false,
             last_title: String::new(),
@@ -149,9 +152,10 @@ impl EditorApp {
         app
     }
 
-    /// True while any background job runs (or a solve waits for a cancelled one to end).
+    /// True while any background job runs (or a solve waits for a cancelled one to end, or
+    /// the parameterization shown for its remesh).
     pub fn busy(&self) -> bool {
-        !self.jobs.is_empty() || self.solve_pending
+        !self.jobs.is_empty() || self.solve_pending || self.remesh_pending()
     }
 
     /// Loads the embedded default mesh in the background.
@@ -284,6 +288,14 @@ impl EditorApp {
                 Ok(JobOutput::Exported(message)) => {
                     self.status = message;
                 }
+                Ok(JobOutput::Remeshed(result)) => self.take_remesh(*result),
+                Err(e) if job.param_revision.is_some() => {
+                    self.take_remesh(super::remesh::RemeshResult {
+                        generation: self.document.generation(),
+                        param_revision: job.param_revision.unwrap_or_default(),
+                        outcome: Err(e),
+                    });
+                }
                 Ok(JobOutput::Parameterized(p, analysis)) => {
                     self.document.param_analysis = Some(analysis);
                     // the stage runs QuadCover with the default options: the repair is on
@@ -304,6 +316,7 @@ impl EditorApp {
         if self.solve_pending && !self.jobs.iter().any(|j| j.revision.is_some()) {
             self.spawn_solve();
         }
+        self.sync_remesh();
     }
 
     fn after_load(&mut self) {
@@ -441,6 +454,7 @@ impl eframe::App for EditorApp {
             .resizable(true)
             .show(ui, |ui| self.side_panel(ui));
         egui::CentralPanel::no_frame().show(ui, |ui| self.viewport(ui));
+        self.remesh_quality_window(ui);
         self.error_window(ui);
         self.confirm_window(ui);
         if self.busy() {

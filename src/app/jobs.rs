@@ -30,6 +30,9 @@ pub enum JobOutput {
     Solved(Box<SolveOutcome>),
     /// The picking BVH of the current mesh.
     Picker(Arc<Picker>),
+    /// The remesh of a parameterization, or why its extraction failed
+    /// ([`super::remesh::RemeshRequest`]).
+    Remeshed(Box<super::remesh::RemeshResult>),
 }
 
 /// Shared progress of a running job: a fraction in [0, 1] (or unknown) and a
@@ -79,6 +82,9 @@ pub struct Job {
     pub generation: Option<u64>,
     /// For solve jobs: the document's edit revision they solve (older ones are dropped).
     pub revision: Option<u64>,
+    /// For remesh extractions: the parameterization revision they extract
+    /// ([`super::document::Document::param_revision`]).
+    pub param_revision: Option<u64>,
     pub started: Instant,
     pub progress: Arc<Progress>,
     rx: Receiver<Result<JobOutput, String>>,
@@ -121,6 +127,7 @@ impl Job {
             name,
             generation: None,
             revision: None,
+            param_revision: None,
             started: Instant::now(),
             progress,
             rx,
@@ -136,6 +143,12 @@ impl Job {
     /// Tags a solve job with the edit revision it solves.
     pub fn for_revision(mut self, revision: u64) -> Job {
         self.revision = Some(revision);
+        self
+    }
+
+    /// Tags a remesh extraction with the parameterization revision it extracts.
+    pub fn for_param(mut self, param_revision: u64) -> Job {
+        self.param_revision = Some(param_revision);
         self
     }
 

@@ -53,6 +53,12 @@ impl EditorApp {
                     ui.close();
                 }
                 ui.checkbox(&mut self.document.display.wireframe, "Wireframe");
+                ui.separator();
+                ui.label("Remesh");
+                for m in super::settings::RemeshDisplay::ALL {
+                    ui.radio_value(&mut self.document.display.remesh, m, m.label());
+                }
+                ui.checkbox(&mut self.remesh.show_quality, "Remesh quality window");
             });
         });
     }

@@ -6,6 +6,8 @@
 //!   parameterization shown, overlays, display settings, project path and saved marker).
 //! - [`jobs::Job`]: background work on its own thread, results via a channel.
 //! - [`folds`]: the overlay of the folded faces of the map shown.
+//! - [`remesh`]: the remesh of the map shown, extracted in the background after every solve,
+//!   drawn over (or instead of) the surface; [`quality_panel`]: its quality window.
 //! - [`picking`]: camera rays and BVH ray casts, for every tool; [`tools`]: the viewport's
 //!   interaction modes (one file per tool), which hand one edit to the document per gesture.
 //! - [`editor`] wires the menus ([`menus`]), the side panel ([`panels`], with the tools and
@@ -25,6 +27,8 @@ pub mod jobs;
 mod menus;
 mod panels;
 pub mod picking;
+pub mod quality_panel;
+pub mod remesh;
 pub mod render;
 pub mod scene;
 pub mod settings;

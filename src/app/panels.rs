@@ -116,6 +116,7 @@ impl EditorApp {
                     None => ui.weak("Folds: no parameterization yet"),
                 };
             }
+            self.remesh_section(ui);
 
             ui.separator();
             ui.heading("Singularity index");

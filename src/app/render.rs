@@ -11,7 +11,7 @@ use wgpu::util::DeviceExt;
 
 use super::camera::OrbitCamera;
 use super::scene::{Glyph, LineSegment, Overlay, SceneData, Vertex};
-use super::settings::{DisplayMode, DisplaySettings, Pattern, Shading};
+use super::settings::{DisplayMode, DisplaySettings, Pattern, RemeshDisplay, Shading};
 
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -227,6 +227,14 @@ pub struct Renderer {
     uniform_buffer: wgpu::Buffer,
     mesh_bind_group: wgpu::BindGroup,
     overlay_bind_group: wgpu::BindGroup,
+    /// The uniforms again with a smaller glyph size and a thinner line width, for the overlays'
+    /// dots and fine lines ([`Overlay::dots`], [`Overlay::fine_lines`]): the glyph and line
+    /// pipelines draw them with this bind group.
+    fine_uniform_buffer: wgpu::Buffer,
+    fine_bind_group: wgpu::BindGroup,
+    /// The remesh's polygons, fan-triangulated, drawn instead of the surface in
+    /// [`RemeshDisplay::Only`] ([`Renderer::sync_remesh_surface`]).
+    remesh_surface: Option<GpuSurface>,
     sampler: wgpu::Sampler,
     pattern_view: wgpu::TextureView,
     scene: Option<GpuScene>,
@@ -241,10 +249,19 @@ pub struct Renderer {
 /// Buffers of one overlay.
 struct GpuOverlay {
     revision: u64,
+    fine_lines: Option<(wgpu::Buffer, u32)>,
     lines: Option<(wgpu::Buffer, u32)>,
     thick_lines: Option<(wgpu::Buffer, u32)>,
     glyphs: Option<(wgpu::Buffer, u32)>,
+    dots: Option<(wgpu::Buffer, u32)>,
     over_glyphs: bool,
+}
+
+/// A second surface (per-corner vertices like the scene's), uploaded once per `key`.
+struct GpuSurface {
+    key: u64,
+    vertices: wgpu::Buffer,
+    n_vertices: u32,
 }
 
 /// A pipeline drawing one fullscreen triangle (no vertex buffers, no depth): the LIC pass and
@@ -571,6 +588,20 @@ impl Renderer {
                 resource: uniform_buffer.as_entire_binding(),
             }],
         });
+        let fine_uniform_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("quadcover fine uniforms"),
+            size: std::mem::size_of::<Uniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let fine_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("quadcover fine bg"),
+            layout: &overlay_bgl,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: fine_uniform_buffer.as_entire_binding(),
+            }],
+        });
         let (pattern_view, mesh_bind_group) = {
             let (w, h, rgba) = default_pattern_image();
             let view = upload_rgba(device, queue, w, h, &rgba);
@@ -589,6 +620,9 @@ impl Renderer {
             uniform_buffer,
             mesh_bind_group,
             overlay_bind_group,
+            fine_uniform_buffer,
+            fine_bind_group,
+            remesh_surface: None,
             sampler,
             pattern_view,
             scene: None,
@@ -652,6 +686,7 @@ impl Renderer {
             };
             *slot = Some(GpuOverlay {
                 revision: o.revision,
+                fine_lines: instances("quadcover overlay fine lines", &o.fine_lines),
                 lines: instances("quadcover overlay lines", &o.lines),
                 thick_lines: instances("quadcover overlay thick lines", &o.thick_lines),
                 glyphs: instance_buffer(
@@ -659,6 +694,12 @@ impl Renderer {
                     "quadcover overlay glyphs",
                     bytemuck::cast_slice(&o.glyphs),
                     o.glyphs.len(),
+                ),
+                dots: instance_buffer(
+                    device,
+                    "quadcover overlay dots",
+                    bytemuck::cast_slice(&o.dots),
+                    o.dots.len(),
                 ),
                 over_glyphs: o.over_glyphs,
             });
@@ -677,6 +718,43 @@ impl Renderer {
         self.scene.is_some()
     }
 
+    /// Uploads the remesh's surface (per-corner vertices of its fan-triangulated polygons)
+    /// unless the one with this `key` is on the GPU already; `None` removes it.
+    pub fn sync_remesh_surface(
+        &mut self,
+        device: &wgpu::Device,
+        surface: Option<(u64, &SceneData)>,
+    ) {
+        let Some((key, s)) = surface.filter(|(_, s)| !s.vertices.is_empty()) else {
+            self.remesh_surface = None;
+            return;
+        };
+        if self.remesh_surface.as_ref().is_some_and(|g| g.key == key) {
+            return;
+        }
+        let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("quadcover remesh surface"),
+            contents: bytemuck::cast_slice(&s.vertices),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        self.remesh_surface = Some(GpuSurface {
+            key,
+            vertices,
+            n_vertices: s.vertices.len() as u32,
+        });
+    }
+
+    /// The key of the remesh surface on the GPU (tests check what is drawn).
+    pub fn remesh_surface_key(&self) -> Option<u64> {
+        self.remesh_surface.as_ref().map(|g| g.key)
+    }
+
+    /// Whether these settings draw the remesh's polygons instead of the surface (they ask
+    /// for it and there is one: stripes have no polygons, the surface stays).
+    pub fn remesh_only(&self, settings: &DisplaySettings) -> bool {
+        settings.remesh == RemeshDisplay::Only && self.remesh_surface.is_some()
+    }
+
     /// Creates the render targets for a `width` x `height` image (call again only on resize).
     pub fn create_target(&self, device: &wgpu::Device, width: u32, height: u32) -> RenderTarget {
         RenderTarget::new(device, &self.target_layouts, width, height)
@@ -684,7 +762,8 @@ impl Renderer {
 
     /// Whether `render` runs the LIC passes with these settings.
     fn lic_active(&self, settings: &DisplaySettings) -> bool {
-        settings.mode == DisplayMode::Field
+        !self.remesh_only(settings)
+            && settings.mode == DisplayMode::Field
             && self
                 .scene
                 .as_ref()
@@ -717,16 +796,22 @@ impl Renderer {
         width: u32,
         height: u32,
     ) -> Uniforms {
-        let (has_uv, has_field, symmetry, radius) = match &self.scene {
+        let (mut has_uv, mut has_field, symmetry, radius) = match &self.scene {
             Some(s) => (s.has_uv, s.has_field, s.symmetry, s.radius),
             None => (false, false, 4, 1.0),
         };
         let aspect = width as f32 / height.max(1) as f32;
         let eye = camera.eye();
-        let pattern = match settings.mode {
+        let mut pattern = match settings.mode {
             DisplayMode::Pattern => settings.pattern,
             _ => Pattern::None,
         };
+        // The remesh's polygons are shaded plain: no UVs, no field, and its own edges are
+        // drawn as lines (a wireframe would show the fans' diagonals).
+        let remesh_only = self.remesh_only(settings);
+        if remesh_only {
+            (has_uv, has_field, pattern) = (false, false, Pattern::None);
+        }
         let b = settings.base_color;
         Uniforms {
             view_proj: camera.view_proj(aspect).to_cols_array_2d(),
@@ -756,11 +841,11 @@ impl Renderer {
             modes: [
                 (settings.shading == Shading::Flat) as u32,
                 pattern as u32,
-                settings.wireframe as u32,
+                (settings.wireframe && !remesh_only) as u32,
                 symmetry,
             ],
             flags: [
-                (settings.mode == DisplayMode::Field) as u32,
+                (settings.mode == DisplayMode::Field && !remesh_only) as u32,
                 has_uv as u32,
                 has_field as u32,
                 // twisted stripes (n, k), 16 bits each
@@ -779,8 +864,11 @@ impl Renderer {
         camera: &OrbitCamera,
         settings: &DisplaySettings,
     ) {
-        let u = self.uniforms(camera, settings, target.width, target.height);
+        let mut u = self.uniforms(camera, settings, target.width, target.height);
         queue.write_buffer(&self.uniform_buffer, 0, bytemuck::bytes_of(&u));
+        u.params2[2] = dot_size_px(settings.glyph_size_px);
+        u.params2[3] = fine_line_px(settings.line_width);
+        queue.write_buffer(&self.fine_uniform_buffer, 0, bytemuck::bytes_of(&u));
         if self.lic_active(settings) {
             self.render_lic(encoder, target);
         }
@@ -809,12 +897,16 @@ impl Renderer {
         let Some(scene) = &self.scene else {
             return;
         };
-        if scene.n_vertices > 0 {
+        let surface = match &self.remesh_surface {
+            Some(r) if self.remesh_only(settings) => (&r.vertices, r.n_vertices),
+            _ => (&scene.vertices, scene.n_vertices),
+        };
+        if surface.1 > 0 {
             pass.set_pipeline(&self.mesh_pipeline);
             pass.set_bind_group(0, &self.mesh_bind_group, &[]);
             pass.set_bind_group(1, &target.lic.result_bind_group, &[]);
-            pass.set_vertex_buffer(0, scene.vertices.slice(..));
-            pass.draw(0..scene.n_vertices, 0..1);
+            pass.set_vertex_buffer(0, surface.0.slice(..));
+            pass.draw(0..surface.1, 0..1);
         }
         if settings.show_lines
             && let Some((buf, n)) = &scene.lines
@@ -826,18 +918,26 @@ impl Renderer {
         }
         // Overlay lines over the scene's (the cut graph), glyphs over those lines, then the
         // overlays drawn over the glyphs.
-        let draw = |pass: &mut wgpu::RenderPass<'_>,
-                    pipeline: &wgpu::RenderPipeline,
-                    instances: &Option<(wgpu::Buffer, u32)>| {
+        let draw_with = |pass: &mut wgpu::RenderPass<'_>,
+                         pipeline: &wgpu::RenderPipeline,
+                         bind_group: &wgpu::BindGroup,
+                         instances: &Option<(wgpu::Buffer, u32)>| {
             if let Some((buf, n)) = instances {
                 pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, &self.overlay_bind_group, &[]);
+                pass.set_bind_group(0, bind_group, &[]);
                 pass.set_vertex_buffer(0, buf.slice(..));
                 pass.draw(0..6, 0..*n);
             }
         };
+        let draw = |pass: &mut wgpu::RenderPass<'_>,
+                    pipeline: &wgpu::RenderPipeline,
+                    instances: &Option<(wgpu::Buffer, u32)>| {
+            draw_with(pass, pipeline, &self.overlay_bind_group, instances);
+        };
         let under = || self.overlays.iter().flatten().filter(|o| !o.over_glyphs);
+        let fine = &self.fine_bind_group;
         for overlay in under() {
+            draw_with(&mut pass, &self.line_pipeline, fine, &overlay.fine_lines);
             draw(&mut pass, &self.line_pipeline, &overlay.lines);
             draw(&mut pass, &self.thick_line_pipeline, &overlay.thick_lines);
         }
@@ -849,9 +949,14 @@ impl Renderer {
         }
         // Overlays over the glyphs (the folds), in slot order.
         for overlay in self.overlays.iter().flatten().filter(|o| o.over_glyphs) {
+            draw_with(&mut pass, &self.line_pipeline, fine, &overlay.fine_lines);
             draw(&mut pass, &self.line_pipeline, &overlay.lines);
             draw(&mut pass, &self.thick_line_pipeline, &overlay.thick_lines);
             draw(&mut pass, &self.glyph_pipeline, &overlay.glyphs);
+        }
+        // Dots last, smaller than glyphs: over everything.
+        for overlay in self.overlays.iter().flatten() {
+            draw_with(&mut pass, &self.glyph_pipeline, fine, &overlay.dots);
         }
     }
 }
@@ -1134,6 +1239,17 @@ impl Offscreen {
             height,
         )
     }
+}
+
+/// Diameter of an overlay dot ([`Overlay::dots`]) for the glyph size, pixels.
+pub fn dot_size_px(glyph_size_px: f32) -> f32 {
+    (0.5 * glyph_size_px).max(5.0)
+}
+
+/// Width of an overlay's fine lines ([`Overlay::fine_lines`]) for the pattern line width: that
+/// of the pattern's lines, pixels.
+pub fn fine_line_px(line_width: f32) -> f32 {
+    (1.4 * line_width).max(1.0)
 }
 
 /// A vertex buffer of `n` instances (`None` when there are none: wgpu refuses empty buffers).

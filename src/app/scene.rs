@@ -46,11 +46,17 @@ pub struct Glyph {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Overlay {
     pub revision: u64,
+    /// Lines of the pattern's line width (thinner than `lines`), drawn first: the remesh's
+    /// edges, many and close together.
+    pub fine_lines: Vec<LineSegment>,
     /// Lines of the overlay width ([`super::settings::DisplaySettings::overlay_line_width_px`]).
     pub lines: Vec<LineSegment>,
     /// Lines twice as wide, drawn after `lines`.
     pub thick_lines: Vec<LineSegment>,
     pub glyphs: Vec<Glyph>,
+    /// Small discs (about half a glyph across), drawn after everything else: the remesh's
+    /// irregular vertices, which often sit on a singularity's glyph.
+    pub dots: Vec<Glyph>,
     /// Drawn after every glyph (the singularities' too) instead of under them: a marker at a
     /// singular vertex (a folded face there) stays visible.
     pub over_glyphs: bool,
@@ -58,7 +64,11 @@ pub struct Overlay {
 
 impl Overlay {
     pub fn is_empty(&self) -> bool {
-        self.lines.is_empty() && self.thick_lines.is_empty() && self.glyphs.is_empty()
+        self.lines.is_empty()
+            && self.fine_lines.is_empty()
+            && self.thick_lines.is_empty()
+            && self.glyphs.is_empty()
+            && self.dots.is_empty()
     }
 }
 

@@ -92,6 +92,34 @@ impl DisplayMode {
     }
 }
 
+/// How the remesh of the shown parameterization ([`super::remesh`]) is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum RemeshDisplay {
+    /// Not drawn.
+    #[default]
+    Off,
+    /// Its edges (stripes: its polylines) and irregular vertices over the surface.
+    Edges,
+    /// Its polygons shaded instead of the surface, with its edges and irregular vertices.
+    Only,
+}
+
+impl RemeshDisplay {
+    pub const ALL: [RemeshDisplay; 3] = [
+        RemeshDisplay::Off,
+        RemeshDisplay::Edges,
+        RemeshDisplay::Only,
+    ];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            RemeshDisplay::Off => "Off",
+            RemeshDisplay::Edges => "Edges over surface",
+            RemeshDisplay::Only => "Remesh only",
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct DisplaySettings {
     pub mode: DisplayMode,
@@ -118,6 +146,8 @@ pub struct DisplaySettings {
     pub show_curves: bool,
     /// Highlight the folded faces of the map ([`super::folds`]).
     pub show_folds: bool,
+    /// The remesh overlay ([`super::remesh`]).
+    pub remesh: RemeshDisplay,
     pub glyph_size_px: f32,
     pub overlay_line_width_px: f32,
     /// Linear RGB.
@@ -143,6 +173,7 @@ impl Default for DisplaySettings {
             show_lines: true,
             show_curves: true,
             show_folds: false,
+            remesh: RemeshDisplay::Off,
             glyph_size_px: 14.0,
             overlay_line_width_px: 2.5,
             base_color: [0.62, 0.66, 0.72],

@@ -123,11 +123,13 @@ impl EditorApp {
                 revision: self.document.revision(),
                 scene: self.document.scene().cloned(),
                 overlays: vec![
+                    self.remesh_overlay(),
                     self.curves_overlay(),
                     self.feature_preview_overlay(),
                     self.folds_overlay(),
                     self.tool.overlay(),
                 ],
+                remesh_surface: self.remesh_surface(),
             };
             ui.painter()
                 .add(egui_wgpu::Callback::new_paint_callback(rect, cb));

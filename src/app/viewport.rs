@@ -121,9 +121,12 @@ pub struct ViewportCallback {
     pub size_px: [u32; 2],
     pub revision: u64,
     pub scene: Option<Arc<SceneData>>,
-    /// Overlays in draw order: the constraint curves, the feature preview, the active tool's
-    /// (selection, drag preview).
+    /// Overlays in draw order: the remesh, the constraint curves, the feature preview, the
+    /// folds, the active tool's (selection, drag preview).
     pub overlays: Vec<Option<Arc<Overlay>>>,
+    /// The remesh's fan-triangulated polygons and their key (uploaded once per key), drawn
+    /// instead of the surface when the settings say so ([`super::settings::RemeshDisplay`]).
+    pub remesh_surface: Option<(u64, Arc<SceneData>)>,
 }
 
 impl egui_wgpu::CallbackTrait for ViewportCallback {
@@ -140,6 +143,8 @@ impl egui_wgpu::CallbackTrait for ViewportCallback {
         };
         res.sync_scene(device, self.revision, self.scene.as_deref());
         res.sync_overlays(device, &self.overlays);
+        let surface = self.remesh_surface.as_ref().map(|(k, s)| (*k, s.as_ref()));
+        res.renderer.sync_remesh_surface(device, surface);
         res.ensure_target(device, self.size_px[0], self.size_px[1]);
         if let Some(target) = &res.target {
             res.renderer
