@@ -41,7 +41,7 @@ fn remesh_of(mesh: &TriMesh, n: u32, target: usize) -> Remesh {
         matchings: &field.matchings,
     };
     let p = parameterize(mesh, fr, &ParamOptions::default()).unwrap();
-    extract(mesh, &p.uv, n as u8, &ExtractOptions::default()).unwrap()
+    extract(mesh, &p.uv, n as u8, &unrelaxed()).unwrap()
 }
 
 fn diag(mesh: &TriMesh) -> f64 {
@@ -199,6 +199,14 @@ fn violations(mesh: &TriMesh, surface: &Surface, before: &Remesh, after: &Remesh
     out
 }
 
+/// Extraction without its own relaxation (these tests relax themselves).
+fn unrelaxed() -> ExtractOptions {
+    ExtractOptions {
+        relax: None,
+        ..Default::default()
+    }
+}
+
 /// Relaxes, checks, and prints a table row.
 fn check(name: &str, mesh: &TriMesh, n: u32, target: usize) {
     let before = remesh_of(mesh, n, target);
@@ -334,7 +342,7 @@ fn checks_catch_broken_results() {
             })
         })
         .collect();
-    let r = extract(&mesh, &uv, 4, &ExtractOptions::default()).unwrap();
+    let r = extract(&mesh, &uv, 4, &unrelaxed()).unwrap();
     let surface = Surface::new(&mesh);
     assert!(violations(&mesh, &surface, &r, &r).is_empty());
     let corners = boundary_corners(&mesh, &r);
@@ -411,7 +419,7 @@ fn perturbed_grid_relaxes_to_regular() {
             })
         })
         .collect();
-    let clean = extract(&mesh, &uv, 4, &ExtractOptions::default()).unwrap();
+    let clean = extract(&mesh, &uv, 4, &unrelaxed()).unwrap();
     let mut noisy = clean.clone();
     let mut seed = 99u64;
     let mut rnd = || {
@@ -514,7 +522,7 @@ fn constraint_chain_is_kept() {
             })
         })
         .collect();
-    let mut r = extract(&mesh, &uv, 4, &ExtractOptions::default()).unwrap();
+    let mut r = extract(&mesh, &uv, 4, &unrelaxed()).unwrap();
     // shift every interior grid vertex except those on the lines a bit in x and y: the
     // line vertices then want to slide (along the line, by the neighbours' pull along it)
     let mut seed = 5u64;
@@ -612,7 +620,7 @@ fn stripes_are_left_alone() {
             })
         })
         .collect();
-    let r = extract(&mesh, &uv, 2, &ExtractOptions::default()).unwrap();
+    let r = extract(&mesh, &uv, 2, &unrelaxed()).unwrap();
     assert!(r.faces.is_empty() && !r.polylines.is_empty());
     let mut s = r.clone();
     let stats = relax(&mut s, &mesh, &[], &RelaxOptions::default());

@@ -243,12 +243,13 @@ impl EditorApp {
         .on_hover_text("Alignment to curvature directions against smoothness; 0 = smoothest");
         ui.add(egui::Slider::new(&mut d.reliable_fraction, 0.0..=1.0).text("Reliable fraction"));
         ui.add_enabled(
-            d.symmetry != 6,
+            d.symmetry == 4,
             egui::Checkbox::new(&mut d.pure_quad, "Pure quad (singularities on Z²)"),
+        )
+        .on_hover_text(
+            "Round gaps to 2Z² so that every singularity becomes one irregular vertex of the quad \
+             remesh (N = 4; more distortion than the thesis's ½Z²)",
         );
-        if d.symmetry == 6 {
-            d.pure_quad = false;
-        }
         ui.checkbox(&mut d.no_half_merges, "No half merges (refuse ±2/4)");
         let mut untangle = !d.no_untangle;
         ui.checkbox(&mut untangle, "Untangle folds").on_hover_text(

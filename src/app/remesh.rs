@@ -216,6 +216,8 @@ pub struct RemeshRequest {
     /// Per-corner UVs, `uv[3 * f + k]`.
     pub uv: Vec<[f64; 2]>,
     pub symmetry: u8,
+    /// The constraint curves' edges (empty without curves): relaxation keeps vertices on them.
+    pub curve_edges: Vec<bool>,
     pub generation: u64,
     pub param_revision: u64,
 }
@@ -231,10 +233,15 @@ impl RemeshRequest {
     /// The extraction of the document's parameterization (`None` without one).
     pub fn for_document(doc: &Document) -> Option<RemeshRequest> {
         let (mesh, p) = (doc.mesh.clone()?, doc.parameterization.as_ref()?);
+        let curve_edges = doc
+            .curves()
+            .map(|c| crate::constraint::curve_edges(&mesh, c.values()))
+            .unwrap_or_default();
         Some(RemeshRequest {
             mesh,
             uv: p.uv.clone(),
             symmetry: p.symmetry as u8,
+            curve_edges,
             generation: doc.generation(),
             param_revision: doc.param_revision(),
         })
@@ -247,7 +254,10 @@ impl RemeshRequest {
             &self.mesh,
             &self.uv,
             self.symmetry,
-            &ExtractOptions::default(),
+            &ExtractOptions {
+                constrained_edges: self.curve_edges,
+                ..Default::default()
+            },
         )
         .map(|(remesh, quality)| RemeshView::new(remesh, quality, start.elapsed().as_secs_f64()))
         .map_err(|e| e.to_string());

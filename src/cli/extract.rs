@@ -33,6 +33,9 @@ pub struct ExtractArgs {
     /// singularities, fold patches) instead of making the output pure quads / triangles.
     #[arg(long)]
     pub no_pure: bool,
+    /// Leave the vertices where the map puts them (no tangential relaxation on the surface).
+    #[arg(long)]
+    pub no_relax: bool,
 }
 
 pub fn run(args: &ExtractArgs) -> Result<(), CliError> {
@@ -62,6 +65,7 @@ pub fn run(args: &ExtractArgs) -> Result<(), CliError> {
     let opts = ExtractOptions {
         split_to_quads: args.split_to_quads,
         pure: !args.no_pure,
+        relax: (!args.no_relax).then(Default::default),
         ..Default::default()
     };
     let (mut remesh, mut q) = remesh_report(&mesh, &uv, args.symmetry, &opts)?;

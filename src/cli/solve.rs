@@ -100,6 +100,10 @@ pub struct SolveArgs {
     /// polylines for N = 2); its quality goes into the report's `remesh` block.
     #[arg(long)]
     pub remesh: Option<PathBuf>,
+    /// With --remesh: leave the remesh's vertices where the map puts them (no tangential
+    /// relaxation on the input surface).
+    #[arg(long)]
+    pub no_relax: bool,
     /// With --symmetry 6 and --remesh: write the hexagon mesh (dual of the triangle remesh).
     #[arg(long, requires = "remesh")]
     pub dual: bool,
@@ -305,6 +309,8 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     // With a computed field, QuadCover's factorizations start as soon as its matchings are final.
     let mut prepared = None;
     let mut solved = None;
+    // The constraint curves' edges (empty without curves), for the remesh's relaxation.
+    let mut curve_edges = Vec::new();
     // Curve shortcuts are edits after the project's (or the only ones).
     let mut shortcut_edits = Vec::new();
     if let Some(angle_deg) = args.features {
@@ -385,6 +391,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 .collect();
             bar.done("edits", t);
             let s = base.solve(replay.last(), &edit::never)?;
+            curve_edges = crate::constraint::curve_edges(&mesh, replay.last().curves.values());
             let field = s.field.clone();
             solved = Some(s.param);
             field
@@ -515,8 +522,12 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         Some(path) => {
             bar.start("remesh");
             let t = Instant::now();
-            let (mut remesh, mut quality) =
-                remesh_report(&mesh, &p.uv, n as u8, &ExtractOptions::default())?;
+            let opts = ExtractOptions {
+                constrained_edges: curve_edges.clone(),
+                relax: (!args.no_relax).then(Default::default),
+                ..Default::default()
+            };
+            let (mut remesh, mut quality) = remesh_report(&mesh, &p.uv, n as u8, &opts)?;
             if args.dual && n == 6 {
                 remesh = dual(&remesh);
                 quality = extract::quality(&remesh, &mesh);

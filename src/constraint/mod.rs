@@ -76,6 +76,23 @@ impl Curve {
     }
 }
 
+/// Per mesh edge: whether one of `curves` runs along it (what remesh relaxation keeps its
+/// vertices on), or an empty list without curves (relaxation then uses the sharp edges).
+pub fn curve_edges<'a>(mesh: &TriMesh, curves: impl IntoIterator<Item = &'a Curve>) -> Vec<bool> {
+    let mut out = Vec::new();
+    for c in curves {
+        if out.is_empty() {
+            out = vec![false; mesh.n_edges()];
+        }
+        for (a, b) in c.segments() {
+            if let Some(h) = halfedge_between(mesh, a, b) {
+                out[mesh.edge(h)] = true;
+            }
+        }
+    }
+    out
+}
+
 /// A halfedge of the edge between `a` and `b` (the one from `a` to `b` when it exists; on a
 /// boundary edge only one of the two does), if they share an edge.
 pub fn halfedge_between(mesh: &TriMesh, a: usize, b: usize) -> Option<usize> {

@@ -50,6 +50,13 @@ pub struct ExtractOptions {
     /// Split every face of a quad extraction into four (1:4 midpoint split, half the edge
     /// length; all quads too, but with an irregular vertex in every former non-quad).
     pub split_to_quads: bool,
+    /// Tangential relaxation of the output vertices on the input surface (`relax`; `None`: the
+    /// vertices stay where the map puts them).
+    pub relax: Option<relax::RelaxOptions>,
+    /// Input edges whose remesh vertices relaxation keeps on them (constraint curves); boundary
+    /// edges always are. Empty: the boundary and the input's sharp edges (dihedral angle above
+    /// `SHARP_EDGE_DEG`).
+    pub constrained_edges: Vec<bool>,
     /// Refuse grids finer than this many points (estimated from the UV area before any point
     /// is made), instead of exhausting memory on a mistyped scale.
     pub max_points: usize,
@@ -62,6 +69,8 @@ impl Default for ExtractOptions {
             max_face_sides: 32,
             pure: true,
             split_to_quads: false,
+            relax: Some(relax::RelaxOptions::default()),
+            constrained_edges: Vec::new(),
             max_points: 50_000_000,
         }
     }
@@ -95,6 +104,8 @@ pub struct Remesh {
     pub patched_places: usize,
     /// What made the output pure (zero when `ExtractOptions::pure` is off).
     pub purified: PurifyStats,
+    /// What relaxation did (`None`: not run).
+    pub relaxed: Option<relax::RelaxStats>,
 }
 
 /// Why extraction failed.
@@ -179,7 +190,32 @@ pub fn extract(
     if symmetry == 4 && opts.split_to_quads {
         out = split_to_quads(&out);
     }
+    if let Some(r) = &opts.relax
+        && symmetry != 2
+    {
+        let sharp;
+        let constrained = if opts.constrained_edges.len() == mesh.n_edges() {
+            &opts.constrained_edges
+        } else {
+            sharp = sharp_edges(mesh, SHARP_EDGE_DEG);
+            &sharp
+        };
+        out.relaxed = Some(relax::relax(&mut out, mesh, constrained, r));
+    }
     Ok(out)
+}
+
+/// Relaxation keeps vertices on input edges sharper than this (dihedral angle, degrees) on them
+/// unless constraint curves are given: creases of CAD parts stay creases.
+pub const SHARP_EDGE_DEG: f64 = 60.0;
+
+/// Per input edge: whether its dihedral angle exceeds `angle_deg`.
+pub fn sharp_edges(mesh: &TriMesh, angle_deg: f64) -> Vec<bool> {
+    let mut out = vec![false; mesh.n_edges()];
+    for e in crate::constraint::detect::feature_edges(mesh, angle_deg) {
+        out[e] = true;
+    }
+    out
 }
 
 /// The dual of a polygon mesh: one vertex per face (its centroid), one face per interior vertex.
@@ -245,6 +281,7 @@ pub fn dual(remesh: &Remesh) -> Remesh {
         polylines: Vec::new(),
         patched_places: remesh.patched_places,
         purified: remesh.purified,
+        relaxed: remesh.relaxed,
     }
 }
 
@@ -289,5 +326,6 @@ pub fn split_to_quads(remesh: &Remesh) -> Remesh {
         polylines: remesh.polylines.clone(),
         patched_places: remesh.patched_places,
         purified: remesh.purified,
+        relaxed: remesh.relaxed,
     }
 }

@@ -25,7 +25,7 @@ use glam::DVec3;
 use super::{Origin, Remesh};
 
 /// What [`purify`] changed.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct PurifyStats {
     /// Faces that were not pure before.
     pub impure_faces: usize,

@@ -42,6 +42,11 @@ pub struct RemeshQuality {
     pub patched_places: usize,
     /// Directed edges used twice or undirected edges in more than two faces.
     pub non_manifold_edges: usize,
+    /// What made the output pure (faces extraction left impure, snaps, collapses, midpoints,
+    /// chords).
+    pub purified: super::PurifyStats,
+    /// What relaxation did (`null`: not run).
+    pub relaxed: Option<super::relax::RelaxStats>,
 }
 
 impl std::fmt::Display for RemeshQuality {
@@ -89,6 +94,8 @@ pub fn quality(remesh: &Remesh, input: &TriMesh) -> RemeshQuality {
         faces: remesh.faces.len(),
         polylines: remesh.polylines.len(),
         patched_places: remesh.patched_places,
+        purified: remesh.purified,
+        relaxed: remesh.relaxed,
         ..Default::default()
     };
     for f in &remesh.faces {

@@ -64,7 +64,7 @@ impl Default for RelaxOptions {
 }
 
 /// What [`relax`] did.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct RelaxStats {
     /// Vertices whose position changed.
     pub moved: usize,

@@ -67,10 +67,8 @@ pub fn snap_boundary(remesh: &mut Remesh, sides: usize, h: f64) -> usize {
     }
     let mut next: HashMap<u32, u32> = HashMap::new();
     for &(a, b) in directed.keys() {
-        if !directed.contains_key(&(b, a)) {
-            if next.insert(a, b).is_some() {
-                return 0; // a vertex on the boundary twice: leave it to the local steps
-            }
+        if !directed.contains_key(&(b, a)) && next.insert(a, b).is_some() {
+            return 0; // a vertex on the boundary twice: leave it to the local steps
         }
     }
     let on_boundary = |v: u32| next.contains_key(&v);

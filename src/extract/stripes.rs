@@ -108,5 +108,6 @@ pub fn extract_stripes(p: &Param) -> Remesh {
         polylines,
         patched_places: patched,
         purified: Default::default(),
+        relaxed: None,
     }
 }

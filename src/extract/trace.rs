@@ -637,5 +637,6 @@ pub fn extract_grid(p: &Param, opts: &ExtractOptions) -> Remesh {
         polylines: Vec::new(),
         patched_places: patched,
         purified: Default::default(),
+        relaxed: None,
     }
 }
