@@ -193,8 +193,8 @@ fn quality_contents(ui: &mut egui::Ui, r: &RemeshView) {
         ));
     }
     rows.push(format!(
-        "Mean distance: {:.2e} (max {:.2e}) of the bounding box diagonal",
-        q.mean_distance, q.max_distance
+        "Mean distance: {:.2e} (max {:.2e}, Hausdorff {:.2e}) of the bounding box diagonal",
+        q.mean_distance, q.max_distance, q.hausdorff
     ));
     rows.push(format!("Patched places: {}", q.patched_places));
     if q.non_manifold_edges > 0 {
