@@ -1,5 +1,8 @@
 //! Remeshing from seamless parameterizations (issue #5).
 
+#[path = "support/meshes.rs"]
+mod meshes;
+
 use std::collections::HashMap;
 
 use quadcover::extract::{ExtractOptions, Remesh, dual, extract, quality};
@@ -232,14 +235,7 @@ fn bad_input_is_an_error() {
 // --- the whole pipeline on shared meshes -------------------------------------------------------
 
 fn shared(name: &str) -> Option<TriMesh> {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/meshes")
-        .join(name);
-    if !path.exists() {
-        eprintln!("skipping: {} not found", path.display());
-        return None;
-    }
-    Some(quadcover::load::load_mesh(&path).unwrap().mesh)
+    meshes::load_shared(name)
 }
 
 /// Field, QuadCover and extraction on a shared mesh; also the 3-D places where extraction may

@@ -6,6 +6,9 @@
 //! does not lower the smallest corner angle, and is deterministic. A meta-test feeds the checks
 //! deliberately broken results, so that each check is known to be able to fail.
 
+#[path = "support/meshes.rs"]
+mod meshes;
+
 use std::collections::HashMap;
 
 use glam::DVec3;
@@ -15,14 +18,7 @@ use quadcover::extract::{ExtractOptions, Origin, Remesh, extract, quality};
 use quadcover::mesh::{TriMesh, generate};
 
 fn shared(name: &str) -> Option<TriMesh> {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/meshes")
-        .join(name);
-    if !path.exists() {
-        eprintln!("skipping: {} not found", path.display());
-        return None;
-    }
-    Some(quadcover::load::load_mesh(&path).unwrap().mesh)
+    meshes::load_shared(name)
 }
 
 /// Field, QuadCover (default options) and extraction at a coarse density.

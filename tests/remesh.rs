@@ -139,24 +139,12 @@ fn remesh_of(name: &str, n: u32) -> Option<Case> {
     })
 }
 
-const MESHES: [&str; 9] = [
-    "spot.obj",
-    "kitten.obj",
-    "eight.obj",
-    "fertility.obj",
-    "fandisk.obj",
-    "camelhead.obj",
-    "max-planck.obj",
-    "bunny.obj",
-    "cerebral-vessels.obj",
-];
-
 /// Issue check: every shared mesh, N = 4 and 6 — pure, manifold, Euler characteristic and
 /// boundary loops of the input; on closed meshes where extraction closed every cell itself,
 /// irregular vertices only at singularities.
 #[test]
 fn default_remeshes_are_pure_and_keep_the_topology() {
-    for name in MESHES {
+    for name in meshes::EVERY_BUT_IGEA {
         for n in [4u32, 6] {
             let Some(c) = remesh_of(name, n) else { return };
             let what = format!("{name} N={n}");

@@ -174,21 +174,12 @@ fn collapse_or_extend_boundary_odd_faces(remesh: &mut Remesh, stats: &mut Purify
             progress = true;
         }
         if !merge.is_empty() {
-            let mut faces = Vec::with_capacity(remesh.faces.len());
-            for (fi, f) in remesh.faces.iter().enumerate() {
-                if removed[fi] {
-                    continue;
-                }
-                let mut g: Vec<u32> = f.iter().map(|v| *merge.get(v).unwrap_or(v)).collect();
-                g.dedup();
-                while g.len() > 1 && g.first() == g.last() {
-                    g.pop();
-                }
-                if g.len() >= 3 {
-                    faces.push(g);
-                }
-            }
-            remesh.faces = faces;
+            let mut fi = 0;
+            remesh.faces.retain(|_| {
+                fi += 1;
+                !removed[fi - 1]
+            });
+            remap_faces(&mut remesh.faces, |v| Some(*merge.get(&v).unwrap_or(&v)));
         }
         if !progress || !deferred {
             break;
@@ -310,15 +301,26 @@ fn pair_odd_faces(remesh: &mut Remesh, stats: &mut PurifyStats) {
 }
 
 fn mean_edge_length(remesh: &Remesh) -> f64 {
-    let (mut sum, mut n) = (0.0, 0usize);
-    for f in &remesh.faces {
-        for k in 0..f.len() {
-            let (a, b) = (f[k], f[(k + 1) % f.len()]);
-            sum += (remesh.positions[a as usize] - remesh.positions[b as usize]).length();
-            n += 1;
-        }
+    let l = super::edge_lengths(remesh);
+    if l.is_empty() {
+        0.0
+    } else {
+        l.iter().sum::<f64>() / l.len() as f64
     }
-    if n == 0 { 0.0 } else { sum / n as f64 }
+}
+
+/// Renames every face's vertices by `map` (`None`: the vertex is dropped), then drops repeated
+/// consecutive vertices and the faces left with fewer than three.
+pub(super) fn remap_faces(faces: &mut Vec<Vec<u32>>, map: impl Fn(u32) -> Option<u32>) {
+    for f in faces.iter_mut() {
+        let mut g: Vec<u32> = f.iter().filter_map(|&v| map(v)).collect();
+        g.dedup();
+        while g.len() > 1 && g.first() == g.last() {
+            g.pop();
+        }
+        *f = g;
+    }
+    faces.retain(|g| g.len() >= 3);
 }
 
 /// Step 3: splits every face with more than `sides` sides (even ones for quads) into faces of
@@ -327,23 +329,7 @@ fn mean_edge_length(remesh: &Remesh) -> f64 {
 /// on the boundary) are preferred and ends already at it are avoided: each such end makes an
 /// irregular vertex.
 fn split_faces(remesh: &mut Remesh, sides: usize, stats: &mut PurifyStats) {
-    let mut edges: HashMap<(u32, u32), usize> = HashMap::new();
-    for f in &remesh.faces {
-        for k in 0..f.len() {
-            let (a, b) = (f[k], f[(k + 1) % f.len()]);
-            *edges.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
-    let mut valence = vec![0usize; remesh.positions.len()];
-    let mut boundary = vec![false; remesh.positions.len()];
-    for (&(a, b), &c) in &edges {
-        valence[a as usize] += 1;
-        valence[b as usize] += 1;
-        if c == 1 {
-            boundary[a as usize] = true;
-            boundary[b as usize] = true;
-        }
-    }
+    let (mut edges, mut valence, boundary) = super::quality::edge_incidence(remesh);
     let regular = |v: u32| match (sides, boundary[v as usize]) {
         (4, false) => 4,
         (4, true) => 3,

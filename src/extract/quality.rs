@@ -233,18 +233,12 @@ pub fn edge_lengths(remesh: &Remesh) -> Vec<f64> {
     out
 }
 
-/// Interior vertices whose valence differs from the regular one of the dominant face type
-/// (4 for quads, 6 for triangles, 3 for hexagons), in increasing order.
-pub fn irregular_vertices(remesh: &Remesh) -> Vec<u32> {
-    let mut by_sides: BTreeMap<usize, usize> = BTreeMap::new();
-    for f in &remesh.faces {
-        *by_sides.entry(f.len()).or_default() += 1;
-    }
-    let regular = match by_sides.iter().max_by_key(|x| *x.1).map(|x| *x.0) {
-        Some(3) => 6,
-        Some(6) => 3,
-        _ => 4,
-    };
+/// Undirected edge (low, high) -> how many faces use it.
+pub(super) type EdgeUse = HashMap<(u32, u32), usize>;
+
+/// The faces' undirected edges with how many faces use each, and per vertex its valence and
+/// whether it lies on the boundary (an edge used once).
+pub(super) fn edge_incidence(remesh: &Remesh) -> (EdgeUse, Vec<usize>, Vec<bool>) {
     let mut undirected: HashMap<(u32, u32), usize> = HashMap::new();
     for f in &remesh.faces {
         for k in 0..f.len() {
@@ -262,7 +256,23 @@ pub fn irregular_vertices(remesh: &Remesh) -> Vec<u32> {
             boundary[b as usize] = true;
         }
     }
-    (0..n as u32)
+    (undirected, valence, boundary)
+}
+
+/// Interior vertices whose valence differs from the regular one of the dominant face type
+/// (4 for quads, 6 for triangles, 3 for hexagons), in increasing order.
+pub fn irregular_vertices(remesh: &Remesh) -> Vec<u32> {
+    let mut by_sides: BTreeMap<usize, usize> = BTreeMap::new();
+    for f in &remesh.faces {
+        *by_sides.entry(f.len()).or_default() += 1;
+    }
+    let regular = match by_sides.iter().max_by_key(|x| *x.1).map(|x| *x.0) {
+        Some(3) => 6,
+        Some(6) => 3,
+        _ => 4,
+    };
+    let (_, valence, boundary) = edge_incidence(remesh);
+    (0..remesh.positions.len() as u32)
         .filter(|&v| {
             let v = v as usize;
             !boundary[v] && valence[v] > 0 && valence[v] != regular

@@ -98,17 +98,7 @@ impl Chain {
     fn project_near(&self, q: DVec3, s: usize, reach: f64) -> (DVec3, usize) {
         let ns = self.n_segments();
         let seg = |i: usize| (self.pts[i], self.pts[i + 1]);
-        let on = |i: usize| {
-            let (a, b) = seg(i);
-            let ab = b - a;
-            let l2 = ab.length_squared();
-            let t = if l2 > 0.0 {
-                ((q - a).dot(ab) / l2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            a + ab * t
-        };
+        let on = |i: usize| closest_on_segment(q, self.pts[i], self.pts[i + 1]);
         let mut best = (on(s), s);
         let mut best_d = (best.0 - q).length_squared();
         for dir in [1i64, -1] {
@@ -140,18 +130,23 @@ impl Chain {
     fn project_all(&self, q: DVec3) -> (f64, usize) {
         (0..self.n_segments())
             .map(|i| {
-                let (a, b) = (self.pts[i], self.pts[i + 1]);
-                let ab = b - a;
-                let l2 = ab.length_squared();
-                let t = if l2 > 0.0 {
-                    ((q - a).dot(ab) / l2).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                ((a + ab * t - q).length_squared(), i)
+                let p = closest_on_segment(q, self.pts[i], self.pts[i + 1]);
+                ((p - q).length_squared(), i)
             })
             .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a })
     }
+}
+
+/// The point of segment [a, b] closest to q (a for a degenerate segment).
+fn closest_on_segment(q: DVec3, a: DVec3, b: DVec3) -> DVec3 {
+    let ab = b - a;
+    let l2 = ab.length_squared();
+    let t = if l2 > 0.0 {
+        ((q - a).dot(ab) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    a + ab * t
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -282,21 +282,8 @@ pub fn snap_boundary(remesh: &mut Remesh, sides: usize, h: f64) -> usize {
         remesh.positions[*y as usize] = p;
         remesh.origins[*y as usize] = remesh.origins[xs[0] as usize];
     }
-    let mut faces = Vec::with_capacity(remesh.faces.len());
-    for f in &remesh.faces {
-        let mut g: Vec<u32> = f
-            .iter()
-            .filter(|v| !dropped.contains(v))
-            .map(|v| *merge.get(v).unwrap_or(v))
-            .collect();
-        g.dedup();
-        while g.len() > 1 && g.first() == g.last() {
-            g.pop();
-        }
-        if g.len() >= 3 {
-            faces.push(g);
-        }
-    }
-    remesh.faces = faces;
+    super::purify::remap_faces(&mut remesh.faces, |v| {
+        (!dropped.contains(&v)).then(|| *merge.get(&v).unwrap_or(&v))
+    });
     merge.len() + dropped.len()
 }

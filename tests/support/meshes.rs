@@ -20,6 +20,24 @@ pub fn shared(name: &str) -> Option<PathBuf> {
     }
 }
 
+/// Every shared mesh but igea (269 k triangles: too slow for every test run).
+pub const EVERY_BUT_IGEA: [&str; 9] = [
+    "spot.obj",
+    "kitten.obj",
+    "eight.obj",
+    "fertility.obj",
+    "fandisk.obj",
+    "camelhead.obj",
+    "max-planck.obj",
+    "bunny.obj",
+    "cerebral-vessels.obj",
+];
+
+/// The shared mesh `name`, loaded, or `None` with a message when the folder is missing.
+pub fn load_shared(name: &str) -> Option<quadcover::mesh::TriMesh> {
+    Some(quadcover::load::load_mesh(&shared(name)?).unwrap().mesh)
+}
+
 /// An edit base on a mesh file, with the file's vertex numbering.
 pub fn base_for(path: &Path, settings: Settings) -> Base {
     let loaded = quadcover::load::load_mesh(path).unwrap();
