@@ -435,3 +435,139 @@ fn compact(remesh: &mut Remesh) {
     remesh.positions = pos;
     remesh.origins = org;
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::HashSet;
+
+    fn remesh(positions: Vec<DVec3>, faces: Vec<Vec<u32>>) -> Remesh {
+        Remesh {
+            origins: vec![Origin::Unknown; positions.len()],
+            positions,
+            faces,
+            ..Default::default()
+        }
+    }
+
+    fn euler(r: &Remesh) -> i64 {
+        let mut edges = HashSet::new();
+        let mut verts = HashSet::new();
+        for f in &r.faces {
+            for k in 0..f.len() {
+                let (a, b) = (f[k], f[(k + 1) % f.len()]);
+                edges.insert((a.min(b), a.max(b)));
+                verts.insert(a);
+            }
+        }
+        verts.len() as i64 - edges.len() as i64 + r.faces.len() as i64
+    }
+
+    fn directed_once(r: &Remesh) -> bool {
+        let mut seen = HashSet::new();
+        r.faces
+            .iter()
+            .all(|f| (0..f.len()).all(|k| seen.insert((f[k], f[(k + 1) % f.len()]))))
+    }
+
+    /// An n × n grid of unit quads (vertex (i, j) = i + (n + 1) j), counter-clockwise.
+    fn grid(n: u32) -> (Vec<DVec3>, Vec<Vec<u32>>) {
+        let id = |i: u32, j: u32| i + (n + 1) * j;
+        let p = (0..=n)
+            .flat_map(|j| (0..=n).map(move |i| DVec3::new(i as f64, j as f64, 0.0)))
+            .collect();
+        let f = (0..n)
+            .flat_map(|j| {
+                (0..n).map(move |i| vec![id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)])
+            })
+            .collect();
+        (p, f)
+    }
+
+    /// Two odd faces inside a closed surface: a cube whose one edge is collapsed has two
+    /// triangles; they are joined through the quads between them and everything ends as quads
+    /// on the same sphere (Euler characteristic 2).
+    #[test]
+    fn odd_faces_of_a_closed_surface_are_paired() {
+        let p: Vec<DVec3> = (0..8)
+            .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, (i >> 2) as f64))
+            .collect();
+        // Cube faces (outward, counter-clockwise), then vertex 7 merged into 6.
+        let cube = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let faces: Vec<Vec<u32>> = cube
+            .iter()
+            .map(|f| {
+                let mut g: Vec<u32> = f.iter().map(|&v| if v == 7 { 6 } else { v }).collect();
+                g.dedup();
+                if g.first() == g.last() {
+                    g.pop();
+                }
+                g
+            })
+            .filter(|g| g.len() >= 3)
+            .collect();
+        let mut r = remesh(p, faces);
+        assert_eq!(r.faces.iter().filter(|f| f.len() == 3).count(), 2);
+        let chi = euler(&r);
+        assert_eq!(chi, 2);
+        let stats = purify(&mut r, 4);
+        assert!(r.faces.iter().all(|f| f.len() == 4), "{:?}", r.faces);
+        assert_eq!(euler(&r), chi);
+        assert!(directed_once(&r));
+        assert_eq!(stats.impure_faces, 2);
+        assert!(stats.inserted_vertices >= 1, "{stats:?}");
+    }
+
+    /// A hexagon (two merged cells) splits into two quads by one chord, a triangle and a
+    /// pentagon on the boundary (a corner cut) become quads, and the grid's Euler
+    /// characteristic (a disk: 1) stays.
+    #[test]
+    fn even_polygons_split_and_boundary_odd_faces_become_quads() {
+        let (mut p, mut faces) = grid(4);
+        // Merge cells (1, 1) and (2, 1) into a hexagon: drop their shared edge 7-12.
+        let (a, b) = (faces[5].clone(), faces[6].clone());
+        faces[5] = vec![a[0], a[1], b[1], b[2], a[2], a[3]];
+        faces.remove(6);
+        // Cut the corner (4, 0) of cell (3, 0) off with a boundary crossing on each side.
+        let (x, y) = (p.len() as u32, p.len() as u32 + 1);
+        p.push(DVec3::new(3.6, 0.0, 0.0));
+        p.push(DVec3::new(4.0, 0.4, 0.0));
+        faces[3] = vec![3, x, y, 9, 8]; // pentagon: cell (3, 0) without its corner
+        faces.push(vec![x, 4, y]); // the corner triangle, outside the pentagon
+        let mut r = remesh(p, faces);
+        let chi = euler(&r);
+        assert_eq!(chi, 1);
+        let stats = purify(&mut r, 4);
+        assert!(r.faces.iter().all(|f| f.len() == 4), "{:?}", r.faces);
+        assert_eq!(euler(&r), chi);
+        assert!(directed_once(&r));
+        assert!(stats.chords >= 1, "{stats:?}");
+        assert_eq!(stats.impure_faces, 3);
+    }
+
+    /// Triangles (N = 6): every polygon is triangulated; a hexagon needs three chords.
+    #[test]
+    fn triangle_output_triangulates_every_polygon() {
+        let r0 = 1.0f64;
+        let mut p: Vec<DVec3> = (0..6)
+            .map(|k| {
+                let t = std::f64::consts::TAU * k as f64 / 6.0;
+                DVec3::new(r0 * t.cos(), r0 * t.sin(), 0.0)
+            })
+            .collect();
+        p.push(DVec3::ZERO);
+        let mut r = remesh(p, vec![(0..6).collect()]);
+        let stats = purify(&mut r, 3);
+        assert_eq!(r.faces.len(), 4);
+        assert!(r.faces.iter().all(|f| f.len() == 3));
+        assert_eq!(stats.chords, 3);
+        assert_eq!(euler(&r), 1);
+    }
+}
