@@ -281,3 +281,44 @@ fn folded_maps_extract_like_their_repaired_maps() {
         assert!((f0 - f1).abs() <= 0.01 * f1, "{name}: faces {f0} vs {f1}");
     }
 }
+
+/// A stale extraction stops: the cancel check is polled between the stages and at every
+/// relaxation iteration, and a check that turns true gives `Cancelled`; one that never does
+/// gives exactly `extract`'s result.
+#[test]
+fn extraction_can_be_cancelled() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let Some(path) = meshes::shared("kitten.obj") else {
+        return;
+    };
+    let base = meshes::base_for(&path, Settings::default());
+    let solved = base.solve(base.initial(), &never).unwrap();
+    let (mesh, uv) = (base.mesh(), &solved.param.uv);
+    let opts = ExtractOptions::default();
+    let polls = AtomicUsize::new(0);
+    let counted = || {
+        polls.fetch_add(1, Ordering::Relaxed);
+        false
+    };
+    let full = quadcover::extract::extract_until(mesh, uv, 4, &opts, &counted).unwrap();
+    let iterations = full.relaxed.unwrap().iterations;
+    assert!(
+        polls.load(Ordering::Relaxed) > iterations,
+        "{} polls for {iterations} relaxation iterations",
+        polls.load(Ordering::Relaxed)
+    );
+    assert_eq!(
+        full.positions,
+        extract(mesh, uv, 4, &opts).unwrap().positions
+    );
+    for after in [0, 1, 5] {
+        let polls = AtomicUsize::new(0);
+        let cancel = || polls.fetch_add(1, Ordering::Relaxed) >= after;
+        let r = quadcover::extract::extract_until(mesh, uv, 4, &opts, &cancel);
+        assert!(
+            matches!(r, Err(quadcover::extract::ExtractError::Cancelled)),
+            "cancelled after {after} polls: {:?}",
+            r.map(|r| r.faces.len())
+        );
+    }
+}

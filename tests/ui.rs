@@ -2081,7 +2081,7 @@ fn stale_remesh_results_are_dropped_and_failures_keep_the_last_good_one() {
     stale.param_revision = revision - 1;
     h.state_mut().jobs.push(
         Job::spawn("Extracting the remesh", None, move |_| {
-            Ok(JobOutput::Remeshed(Box::new(stale.run())))
+            Ok(JobOutput::Remeshed(Box::new(stale.run(&|| false))))
         })
         .for_generation(generation)
         .for_param(revision - 1),

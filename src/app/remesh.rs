@@ -247,10 +247,11 @@ impl RemeshRequest {
         })
     }
 
-    /// Extracts, measures and prepares the remesh (in a background job).
-    pub fn run(self) -> RemeshResult {
+    /// Extracts, measures and prepares the remesh (in a background job); gives up when
+    /// `cancel` turns true (a newer map made this one stale).
+    pub fn run(self, cancel: &(dyn Fn() -> bool + Sync)) -> RemeshResult {
         let start = Instant::now();
-        let outcome = extract::remesh_report(
+        let outcome = extract::remesh_report_until(
             &self.mesh,
             &self.uv,
             self.symmetry,
@@ -258,6 +259,7 @@ impl RemeshRequest {
                 constrained_edges: self.curve_edges,
                 ..Default::default()
             },
+            cancel,
         )
         .map(|(remesh, quality)| RemeshView::new(remesh, quality, start.elapsed().as_secs_f64()))
         .map_err(|e| e.to_string());
@@ -310,7 +312,9 @@ impl EditorApp {
         self.jobs.push(
             Job::spawn("Extracting the remesh", self.ctx.clone(), move |progress| {
                 progress.set_stage("remesh and quality");
-                Ok(JobOutput::Remeshed(Box::new(request.run())))
+                Ok(JobOutput::Remeshed(Box::new(
+                    request.run(&|| progress.cancelled()),
+                )))
             })
             .for_generation(generation)
             .for_param(want),

@@ -33,6 +33,7 @@ use thiserror::Error;
 
 pub use quality::{
     RemeshQuality, corner_angles_deg, edge_lengths, irregular_vertices, quality, remesh_report,
+    remesh_report_until,
 };
 
 use crate::mesh::TriMesh;
@@ -129,6 +130,8 @@ pub enum ExtractError {
     },
     #[error("the parameterization covers no grid point: scale the UVs up")]
     Empty,
+    #[error("cancelled")]
+    Cancelled,
     #[error(
         "the grid would have about {estimated:.3e} points (limit {limit}): the UVs are scaled far \
          too large for this mesh (grid size too small)"
@@ -143,6 +146,18 @@ pub fn extract(
     uv: &[[f64; 2]],
     symmetry: u8,
     opts: &ExtractOptions,
+) -> Result<Remesh, ExtractError> {
+    extract_until(mesh, uv, symmetry, opts, &|| false)
+}
+
+/// [`extract`], giving up with [`ExtractError::Cancelled`] once `cancel` returns true (polled
+/// between the stages and at every relaxation iteration): the editor's stale extractions stop.
+pub fn extract_until(
+    mesh: &TriMesh,
+    uv: &[[f64; 2]],
+    symmetry: u8,
+    opts: &ExtractOptions,
+    cancel: &(dyn Fn() -> bool + Sync),
 ) -> Result<Remesh, ExtractError> {
     if !matches!(symmetry, 2 | 4 | 6) {
         return Err(ExtractError::Symmetry(symmetry));
@@ -184,6 +199,9 @@ pub fn extract(
     if out.positions.is_empty() {
         return Err(ExtractError::Empty);
     }
+    if cancel() {
+        return Err(ExtractError::Cancelled);
+    }
     if opts.pure && symmetry != 2 {
         out.purified = purify::purify(&mut out, if symmetry == 4 { 4 } else { 3 });
     }
@@ -200,7 +218,13 @@ pub fn extract(
             sharp = sharp_edges(mesh, SHARP_EDGE_DEG);
             &sharp
         };
-        out.relaxed = Some(relax::relax(&mut out, mesh, constrained, r));
+        if cancel() {
+            return Err(ExtractError::Cancelled);
+        }
+        out.relaxed = Some(relax::relax_until(&mut out, mesh, constrained, r, cancel));
+        if cancel() {
+            return Err(ExtractError::Cancelled);
+        }
     }
     Ok(out)
 }

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::surface::Surface;
-use super::{ExtractError, ExtractOptions, Remesh, extract};
+use super::{ExtractError, ExtractOptions, Remesh};
 use crate::mesh::TriMesh;
 
 /// Quality of an extracted mesh.
@@ -287,7 +287,21 @@ pub fn remesh_report(
     symmetry: u8,
     opts: &ExtractOptions,
 ) -> Result<(Remesh, RemeshQuality), ExtractError> {
-    let r = extract(mesh, uv, symmetry, opts)?;
+    remesh_report_until(mesh, uv, symmetry, opts, &|| false)
+}
+
+/// [`remesh_report`] with a cancel check (see [`super::extract_until`]).
+pub fn remesh_report_until(
+    mesh: &TriMesh,
+    uv: &[[f64; 2]],
+    symmetry: u8,
+    opts: &ExtractOptions,
+    cancel: &(dyn Fn() -> bool + Sync),
+) -> Result<(Remesh, RemeshQuality), ExtractError> {
+    let r = super::extract_until(mesh, uv, symmetry, opts, cancel)?;
+    if cancel() {
+        return Err(ExtractError::Cancelled);
+    }
     let q = quality(&r, mesh);
     Ok((r, q))
 }

@@ -307,6 +307,18 @@ pub fn relax(
     constrained: &[bool],
     opts: &RelaxOptions,
 ) -> RelaxStats {
+    relax_until(remesh, input, constrained, opts, &|| false)
+}
+
+/// [`relax`], stopping after the iteration during which `cancel` turns true (the positions are
+/// then those of the last finished iteration).
+pub fn relax_until(
+    remesh: &mut Remesh,
+    input: &TriMesh,
+    constrained: &[bool],
+    opts: &RelaxOptions,
+    cancel: &(dyn Fn() -> bool + Sync),
+) -> RelaxStats {
     let n = remesh.positions.len();
     if remesh.faces.is_empty() || n == 0 || input.n_faces() == 0 || opts.iterations == 0 {
         return RelaxStats::default();
@@ -477,6 +489,9 @@ pub fn relax(
         .fold(f64::INFINITY, f64::min)
         .max(opts.min_angle_deg);
     for _ in 0..opts.iterations {
+        if cancel() {
+            break;
+        }
         stats.iterations += 1;
         let updates: Vec<(DVec3, u32)> = (0..n)
             .into_par_iter()
