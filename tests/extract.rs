@@ -26,14 +26,7 @@ fn assert_manifold(r: &Remesh) {
 }
 
 fn euler(r: &Remesh) -> i64 {
-    let mut edges = std::collections::HashSet::new();
-    for f in &r.faces {
-        for k in 0..f.len() {
-            let (a, b) = (f[k], f[(k + 1) % f.len()]);
-            edges.insert((a.min(b), a.max(b)));
-        }
-    }
-    r.positions.len() as i64 - edges.len() as i64 + r.faces.len() as i64
+    r.euler_characteristic()
 }
 
 fn vertex_uvs(mesh: &TriMesh, f: impl Fn(glam::DVec3) -> [f64; 2]) -> Vec<[f64; 2]> {

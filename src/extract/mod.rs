@@ -109,6 +109,22 @@ pub struct Remesh {
     pub relaxed: Option<relax::RelaxStats>,
 }
 
+impl Remesh {
+    /// V − E + F over the vertices the faces use (what extraction must keep of the input).
+    pub fn euler_characteristic(&self) -> i64 {
+        let mut edges = std::collections::HashSet::new();
+        let mut used = std::collections::HashSet::new();
+        for f in &self.faces {
+            for k in 0..f.len() {
+                let (a, b) = (f[k], f[(k + 1) % f.len()]);
+                edges.insert((a.min(b), a.max(b)));
+                used.insert(a);
+            }
+        }
+        used.len() as i64 - edges.len() as i64 + self.faces.len() as i64
+    }
+}
+
 /// Why extraction failed.
 #[derive(Debug, Error)]
 pub enum ExtractError {

@@ -450,19 +450,6 @@ mod tests {
         }
     }
 
-    fn euler(r: &Remesh) -> i64 {
-        let mut edges = HashSet::new();
-        let mut verts = HashSet::new();
-        for f in &r.faces {
-            for k in 0..f.len() {
-                let (a, b) = (f[k], f[(k + 1) % f.len()]);
-                edges.insert((a.min(b), a.max(b)));
-                verts.insert(a);
-            }
-        }
-        verts.len() as i64 - edges.len() as i64 + r.faces.len() as i64
-    }
-
     fn directed_once(r: &Remesh) -> bool {
         let mut seen = HashSet::new();
         r.faces
@@ -515,11 +502,11 @@ mod tests {
             .collect();
         let mut r = remesh(p, faces);
         assert_eq!(r.faces.iter().filter(|f| f.len() == 3).count(), 2);
-        let chi = euler(&r);
+        let chi = r.euler_characteristic();
         assert_eq!(chi, 2);
         let stats = purify(&mut r, 4);
         assert!(r.faces.iter().all(|f| f.len() == 4), "{:?}", r.faces);
-        assert_eq!(euler(&r), chi);
+        assert_eq!(r.euler_characteristic(), chi);
         assert!(directed_once(&r));
         assert_eq!(stats.impure_faces, 2);
         assert!(stats.inserted_vertices >= 1, "{stats:?}");
@@ -542,11 +529,11 @@ mod tests {
         faces[3] = vec![3, x, y, 9, 8]; // pentagon: cell (3, 0) without its corner
         faces.push(vec![x, 4, y]); // the corner triangle, outside the pentagon
         let mut r = remesh(p, faces);
-        let chi = euler(&r);
+        let chi = r.euler_characteristic();
         assert_eq!(chi, 1);
         let stats = purify(&mut r, 4);
         assert!(r.faces.iter().all(|f| f.len() == 4), "{:?}", r.faces);
-        assert_eq!(euler(&r), chi);
+        assert_eq!(r.euler_characteristic(), chi);
         assert!(directed_once(&r));
         assert!(stats.chords >= 1, "{stats:?}");
         assert_eq!(stats.impure_faces, 3);
@@ -568,6 +555,6 @@ mod tests {
         assert_eq!(r.faces.len(), 4);
         assert!(r.faces.iter().all(|f| f.len() == 3));
         assert_eq!(stats.chords, 3);
-        assert_eq!(euler(&r), 1);
+        assert_eq!(r.euler_characteristic(), 1);
     }
 }
