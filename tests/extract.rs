@@ -2,27 +2,15 @@
 
 #[path = "support/meshes.rs"]
 mod meshes;
-
-use std::collections::HashMap;
+#[path = "support/remesh_checks.rs"]
+mod remesh_checks;
 
 use quadcover::extract::{ExtractOptions, Remesh, dual, extract, quality};
 use quadcover::mesh::TriMesh;
 use quadcover::mesh::generate;
 
-/// Checks each directed edge is used once and each undirected edge by at most two faces.
 fn assert_manifold(r: &Remesh) {
-    let mut directed: HashMap<(u32, u32), usize> = HashMap::new();
-    for f in &r.faces {
-        assert!(f.len() >= 3);
-        for k in 0..f.len() {
-            let e = (f[k], f[(k + 1) % f.len()]);
-            assert_ne!(e.0, e.1, "degenerate edge in {f:?}");
-            *directed.entry(e).or_default() += 1;
-        }
-    }
-    for (e, c) in &directed {
-        assert_eq!(*c, 1, "directed edge {e:?} used {c} times");
-    }
+    remesh_checks::assert_manifold(r, "remesh");
 }
 
 fn euler(r: &Remesh) -> i64 {
