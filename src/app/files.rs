@@ -238,16 +238,16 @@ impl EditorApp {
             self.status = "Nothing to export: parameterize first".into();
             return;
         };
-        let (uv, n) = (p.uv.clone(), p.symmetry as u8);
+        let (uv, n, poles) = (p.uv.clone(), p.symmetry as u8, p.poles.clone());
         self.jobs.push(Job::spawn(
             format!("Exporting {}", path.display()),
             ctx,
             move |_| {
                 match kind {
-                    ExportKind::UvObj => crate::export::write_uv_obj(&path, &mesh, &uv)
+                    ExportKind::UvObj => crate::export::write_uv_obj(&path, &mesh, &uv, &poles)
                         .map(|()| JobOutput::Exported(format!("Saved {}", path.display()))),
-                    ExportKind::Remesh => crate::export::write_remesh(&path, &mesh, &uv, n, n == 6)
-                        .map(|q| {
+                    ExportKind::Remesh => {
+                        crate::export::write_remesh(&path, &mesh, &uv, &poles, n, n == 6).map(|q| {
                             JobOutput::Exported(format!(
                                 "Saved {}: {} vertices, {} irregular, RSD edge {:.1} %",
                                 path.display(),
@@ -255,7 +255,8 @@ impl EditorApp {
                                 q.irregular_vertices,
                                 100.0 * q.rsd_edge
                             ))
-                        }),
+                        })
+                    }
                 }
                 .map_err(|e| e.to_string())
             },

@@ -215,6 +215,8 @@ pub struct RemeshRequest {
     pub mesh: Arc<TriMesh>,
     /// Per-corner UVs, `uv[3 * f + k]`.
     pub uv: Vec<[f64; 2]>,
+    /// The map's treated poles (their star faces are bilinear quads).
+    pub poles: Vec<crate::param::Pole>,
     pub symmetry: u8,
     /// The constraint curves' edges (empty without curves): relaxation keeps vertices on them.
     pub curve_edges: Vec<bool>,
@@ -240,6 +242,7 @@ impl RemeshRequest {
         Some(RemeshRequest {
             mesh,
             uv: p.uv.clone(),
+            poles: p.poles.clone(),
             symmetry: p.symmetry as u8,
             curve_edges,
             generation: doc.generation(),
@@ -257,6 +260,7 @@ impl RemeshRequest {
             self.symmetry,
             &ExtractOptions {
                 constrained_edges: self.curve_edges,
+                poles: self.poles,
                 ..Default::default()
             },
             cancel,

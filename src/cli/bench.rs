@@ -343,7 +343,10 @@ fn remesh_comparison(args: &BenchArgs) -> Result<(), CliError> {
             base.mesh(),
             &solved.param.uv,
             n as u8,
-            &ExtractOptions::default(),
+            &ExtractOptions {
+                poles: solved.param.poles.clone(),
+                ..Default::default()
+            },
         )?;
         let ms = t.elapsed().as_secs_f64() * 1e3;
         let regular_sides = if n == 6 { 3 } else { 4 };
@@ -466,6 +469,7 @@ fn stages(rows: &mut Vec<Row>, name: &str, mesh: &TriMesh) -> Result<(), CliErro
             rounding: Rounding::Greedy,
             pure_quad: false,
             no_untangle: false,
+            no_poles: false,
         };
         let qg = QuadCover::new(mesh, symmetry, matchings, greedy)?;
         measure(rows, name, n, "param.global (greedy rounding)", || {
@@ -567,7 +571,11 @@ fn relax_comparison(args: &BenchArgs) -> Result<(), CliError> {
     let s1 = base.apply(&s0, &Edit::Relax, &crate::edit::never)?;
     for (label, state) in [("before relax", &s0), ("after relax", &s1)] {
         let solved = base.solve(state, &crate::edit::never)?;
-        let (_, q) = remesh_report(base.mesh(), &solved.param.uv, 4, &ExtractOptions::default())?;
+        let opts = ExtractOptions {
+            poles: solved.param.poles.clone(),
+            ..Default::default()
+        };
+        let (_, q) = remesh_report(base.mesh(), &solved.param.uv, 4, &opts)?;
         println!(
             "{:<22} {:>13} {:>10.2} {:>8} {:>10} {:>10} {:>8.1} % {:>8.1} %",
             label,

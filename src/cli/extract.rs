@@ -9,6 +9,7 @@ use super::CliError;
 use crate::extract::{ExtractOptions, dual, quality, remesh_report};
 use crate::io::{ObjOutput, read_obj_bytes, write_obj};
 use crate::mesh::TriMesh;
+use crate::param::{FileQuad, poles_from_quads};
 
 #[derive(Debug, Args)]
 pub struct ExtractArgs {
@@ -62,7 +63,29 @@ pub fn run(args: &ExtractArgs) -> Result<(), CliError> {
             uv.push(corner_uvs[3 * t + k]);
         }
     }
+    // Star faces written as pole quads (a b p p): the poles of the map.
+    let mut face_of_triangle = vec![usize::MAX; data.soup.triangles.len()];
+    for (f, &t) in repair.original_face.iter().enumerate() {
+        face_of_triangle[t as usize] = f;
+    }
+    let mut file_vertex = vec![usize::MAX; data.soup.positions.len()];
+    for (v, &o) in repair.original_vertex.iter().enumerate() {
+        file_vertex[o as usize] = v;
+    }
+    let quads: Vec<FileQuad> = data
+        .pole_quads
+        .iter()
+        .filter(|q| face_of_triangle[q.triangle] != usize::MAX)
+        .map(|q| FileQuad {
+            face: face_of_triangle[q.triangle],
+            vertices: data.soup.triangles[q.triangle].map(|v| file_vertex[v as usize]),
+            uv: q.uv,
+        })
+        .collect();
+    let poles =
+        poles_from_quads(&mesh, &quads).map_err(|e| format!("{}: {e}", args.mesh.display()))?;
     let opts = ExtractOptions {
+        poles,
         split_to_quads: args.split_to_quads,
         pure: !args.no_pure,
         relax: (!args.no_relax).then(Default::default),

@@ -72,6 +72,10 @@ pub struct SolveArgs {
     /// Refuse singularity merges that would create index ±2/4 (hanging nodes; N = 4).
     #[arg(long)]
     pub no_half_merges: bool,
+    /// Refuse singularity merges that would create a pole (positive integral index, e.g. +4/4;
+    /// by default they are allowed and treated by alg. 6, sec. 4.3).
+    #[arg(long)]
+    pub no_pole_merges: bool,
     /// Keep the folds the global step leaves (no injectivity repair; REPORT.json still counts
     /// them).
     #[arg(long)]
@@ -171,8 +175,20 @@ struct Report {
     /// Edits of the project replayed (0 without a project), and those skipped.
     edits_applied: usize,
     skipped_edits: Vec<SkippedOut>,
+    /// Singularities of positive integral index treated by alg. 6 (their star faces are the
+    /// quads of UV.obj), and those it could not treat.
+    poles: Vec<PoleOut>,
+    untreated_poles: Vec<usize>,
     #[serde(skip_serializing_if = "Option::is_none")]
     remesh: Option<RemeshQuality>,
+}
+
+#[derive(Debug, Serialize)]
+struct PoleOut {
+    vertex: usize,
+    index: f64,
+    /// The star's faces (file triangle indices), counter-clockwise.
+    faces: Vec<usize>,
 }
 
 /// Per-stage progress on stderr: a spinner naming the running stage on terminals (indicatif
@@ -245,6 +261,9 @@ fn settings_from(args: &SolveArgs, base: Option<&Settings>) -> Result<Settings, 
     }
     if args.no_half_merges {
         s.no_half_merges = true;
+    }
+    if args.no_pole_merges {
+        s.no_pole_merges = true;
     }
     if let Some(m) = args.relax_merge_within {
         s.relax_merge_within = m;
@@ -497,6 +516,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         })
         .collect();
     let mut corner_uvs = Vec::with_capacity(3 * soup.triangles.len());
+    let mut face_of_tri = Vec::with_capacity(soup.triangles.len());
     for (t, tri) in soup.triangles.iter().enumerate() {
         let f = match mesh_face_of_tri[t] {
             usize::MAX => *by_vertices
@@ -504,6 +524,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 .ok_or_else(|| format!("triangle {t} was dropped and has no duplicate"))?,
             f => f,
         };
+        face_of_tri.push(f);
         let mv = mesh.face(f).map(|v| repair.original_vertex[v]);
         for &sv in tri {
             let k = mv
@@ -513,9 +534,17 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             corner_uvs.push(p.uv[3 * f + k]);
         }
     }
+    // Star faces of poles as their bilinear quads (the pole vertex twice).
+    let (polygons, corner_uvs) = crate::export::uv_polygons(
+        &soup.triangles,
+        &corner_uvs,
+        &p.poles,
+        |t| face_of_tri[t],
+        |v| repair.original_vertex[v as usize],
+    );
     io::write::write_obj(
         &args.out,
-        &io::write::ObjOutput::new(&soup.positions, &soup.triangles).with_uvs(&corner_uvs),
+        &io::write::ObjOutput::new(&soup.positions, &polygons).with_uvs(&corner_uvs),
     )?;
     bar.done("write", t);
     let remesh = match &args.remesh {
@@ -525,6 +554,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             let opts = ExtractOptions {
                 constrained_edges: curve_edges.clone(),
                 relax: (!args.no_relax).then(Default::default),
+                poles: p.poles.clone(),
                 ..Default::default()
             };
             let (mut remesh, mut quality) = remesh_report(&mesh, &p.uv, n as u8, &opts)?;
@@ -543,8 +573,9 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     timings.total = total.elapsed().as_secs_f64() * 1e3;
     let topo = mesh.topology();
     bar.line(format!(
-        "  {} singularities, {} cut paths, {} flipped faces, seam error {:.1e}, conformal distortion {:.3} (p99 {:.3})",
+        "  {} singularities ({} poles), {} cut paths, {} flipped faces, seam error {:.1e}, conformal distortion {:.3} (p99 {:.3})",
         p.singularities.len(),
+        p.poles.len(),
         p.cut_paths.len(),
         p.flipped_faces,
         p.seam_max_error,
@@ -593,6 +624,24 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             timings_ms: timings,
             edits_applied,
             skipped_edits,
+            poles: p
+                .poles
+                .iter()
+                .map(|x| PoleOut {
+                    vertex: repair.original_vertex[x.vertex] as usize,
+                    index: x.index,
+                    faces: x
+                        .faces
+                        .iter()
+                        .map(|&f| repair.original_face[f] as usize)
+                        .collect(),
+                })
+                .collect(),
+            untreated_poles: p
+                .untreated_poles
+                .iter()
+                .map(|&v| repair.original_vertex[v] as usize)
+                .collect(),
             remesh: remesh.clone(),
         };
         let json = serde_json::to_string_pretty(&report)?;

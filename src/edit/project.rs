@@ -44,6 +44,9 @@ pub struct Settings {
     pub rounding: RoundingSetting,
     /// Refuse merges that would create a singularity of index ±2/4 (a hanging node; N = 4).
     pub no_half_merges: bool,
+    /// Refuse merges that would create a pole (positive integral index, e.g. +4/4 or +2/2;
+    /// default off: alg. 6 treats poles, sec. 4.3).
+    pub no_pole_merges: bool,
     /// `relax` merges singularities closer than this many grid cells.
     pub relax_merge_within: f64,
     /// Keep the folds of the global step (no injectivity repair).
@@ -72,6 +75,7 @@ impl Default for Settings {
             pure_quad: true,
             rounding: RoundingSetting::Direct,
             no_half_merges: false,
+            no_pole_merges: false,
             relax_merge_within: 1.0,
             no_untangle: false,
         }
@@ -150,6 +154,7 @@ impl Settings {
             },
             pure_quad: self.pure_quad && self.symmetry == 4,
             no_untangle: self.no_untangle,
+            no_poles: false,
         }
     }
 }
@@ -434,13 +439,19 @@ mod tests {
             },
             Settings {
                 target_vertices: Some(6500),
+                no_pole_merges: true,
                 ..Settings::default()
             },
         );
         p.edits = vec![Edit::MoveSingularity { from: 3, to: 9 }, Edit::Relax];
         let json = p.to_json();
+        assert!(json.contains("\"no_pole_merges\": true"), "{json}");
         let back = Project::from_json(&json, Path::new("p.json")).unwrap();
         assert_eq!(back, p);
+        // Absent settings take the defaults (poles allowed).
+        let old = json.replace("\"no_pole_merges\": true,", "");
+        let back = Project::from_json(&old, Path::new("p.json")).unwrap();
+        assert!(!back.settings.no_pole_merges && back.settings.target_vertices == Some(6500));
         // sha256 of "abc" (FIPS 180-2 example).
         assert_eq!(
             sha256_hex(b"abc"),

@@ -19,6 +19,7 @@
 
 mod fill;
 mod lattice;
+mod poles;
 mod purify;
 mod snap;
 pub use purify::PurifyStats;
@@ -61,6 +62,9 @@ pub struct ExtractOptions {
     /// Refuse grids finer than this many points (estimated from the UV area before any point
     /// is made), instead of exhausting memory on a mistyped scale.
     pub max_points: usize,
+    /// The map's treated poles (`Parameterization::poles`): their star faces are bilinear
+    /// quads, extracted through a tessellated proxy and welded into the pole (`poles`).
+    pub poles: Vec<crate::param::Pole>,
 }
 
 impl Default for ExtractOptions {
@@ -73,6 +77,7 @@ impl Default for ExtractOptions {
             relax: Some(relax::RelaxOptions::default()),
             constrained_edges: Vec::new(),
             max_points: 50_000_000,
+            poles: Vec::new(),
         }
     }
 }
@@ -148,6 +153,8 @@ pub enum ExtractError {
     Empty,
     #[error("cancelled")]
     Cancelled,
+    #[error("the pole stars cannot be extracted: {0}")]
+    Poles(String),
     #[error(
         "the grid would have about {estimated:.3e} points (limit {limit}): the UVs are scaled far \
          too large for this mesh (grid size too small)"
@@ -206,11 +213,28 @@ pub fn extract_until(
             limit: opts.max_points,
         });
     }
-    let param = lattice::Param::new(mesh, uv, symmetry, opts.snap_tolerance)?;
-    let mut out = if symmetry == 2 {
-        stripes::extract_stripes(&param)
+    let raw = |mesh: &TriMesh, uv: &[[f64; 2]]| -> Result<Remesh, ExtractError> {
+        let param = lattice::Param::new(mesh, uv, symmetry, opts.snap_tolerance)?;
+        Ok(if symmetry == 2 {
+            stripes::extract_stripes(&param)
+        } else {
+            trace::extract_grid(&param, opts)
+        })
+    };
+    let mut out = if opts.poles.is_empty() {
+        raw(mesh, uv)?
     } else {
-        trace::extract_grid(&param, opts)
+        for p in &opts.poles {
+            if p.faces.iter().any(|&f| f >= mesh.n_faces()) || p.vertex >= mesh.n_vertices() {
+                return Err(ExtractError::Poles(format!(
+                    "pole at vertex {} names elements this mesh does not have",
+                    p.vertex
+                )));
+            }
+        }
+        let proxy = poles::Proxy::new(mesh, uv, &opts.poles)?;
+        let r = raw(&proxy.mesh, &proxy.uv)?;
+        proxy.close(mesh, &opts.poles, r)
     };
     if out.positions.is_empty() {
         return Err(ExtractError::Empty);

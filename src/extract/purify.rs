@@ -34,6 +34,8 @@ pub struct PurifyStats {
     pub collapsed_edges: usize,
     pub inserted_vertices: usize,
     pub chords: usize,
+    /// Pairs of adjacent triangles joined into a quad (their common edge removed).
+    pub joined_triangles: usize,
 }
 
 /// Makes every face a quad (`sides = 4`) or a triangle (`sides = 3`).
@@ -52,6 +54,7 @@ pub fn purify(remesh: &mut Remesh, sides: usize) -> PurifyStats {
     stats.snapped = super::snap::snap_boundary(remesh, sides, h);
     if sides == 4 {
         collapse_or_extend_boundary_odd_faces(remesh, &mut stats);
+        join_triangle_pairs(remesh, &mut stats);
         pair_odd_faces(remesh, &mut stats);
     }
     split_faces(remesh, sides, &mut stats);
@@ -224,7 +227,78 @@ fn collapse_keeps_manifold(
     true
 }
 
-/// Step 2: joins odd faces pairwise, or to the boundary, through the dual graph.
+/// Step 2a: adjacent triangles become one quad by removing their common edge (what a midpoint
+/// on it would do too, without the midpoint's valence-2 vertex). A maximal matching, taking the
+/// triangles with the fewest free triangle neighbours first: on a cycle of triangles (the fan
+/// around a pole) that pairs them all when there is an even number.
+fn join_triangle_pairs(remesh: &mut Remesh, stats: &mut PurifyStats) {
+    let he = edge_faces(&remesh.faces);
+    let tri: Vec<bool> = remesh.faces.iter().map(|f| f.len() == 3).collect();
+    // Triangle neighbours across interior edges: (neighbour, common edge a -> b in this face).
+    let neighbours = |fi: usize| -> Vec<(usize, (u32, u32))> {
+        let f = &remesh.faces[fi];
+        let mut out: Vec<(usize, (u32, u32))> = (0..3)
+            .filter_map(|k| {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                he.get(&(b, a))
+                    .filter(|&&g| tri[g] && g != fi)
+                    .map(|&g| (g, (a, b)))
+            })
+            .collect();
+        out.sort_unstable();
+        out.dedup_by_key(|x| x.0);
+        out
+    };
+    let mut taken = vec![false; remesh.faces.len()];
+    let free = |taken: &[bool], fi: usize| neighbours(fi).iter().filter(|x| !taken[x.0]).count();
+    let mut joins: Vec<(usize, usize, (u32, u32))> = Vec::new();
+    loop {
+        let pick = (0..remesh.faces.len())
+            .filter(|&fi| tri[fi] && !taken[fi])
+            .map(|fi| (free(&taken, fi), fi))
+            .filter(|&(c, _)| c > 0)
+            .min();
+        let Some((_, fi)) = pick else { break };
+        let Some((g, e)) = neighbours(fi)
+            .into_iter()
+            .filter(|x| !taken[x.0])
+            .min_by_key(|x| (free(&taken, x.0), x.0))
+        else {
+            break;
+        };
+        // The quad would repeat a vertex when the triangles share more than the edge.
+        let (f, h) = (&remesh.faces[fi], &remesh.faces[g]);
+        let third = |t: &[u32]| t.iter().copied().find(|&v| v != e.0 && v != e.1);
+        if third(f) == third(h) {
+            taken[fi] = true;
+            continue;
+        }
+        taken[fi] = true;
+        taken[g] = true;
+        joins.push((fi, g, e));
+    }
+    let mut gone = vec![false; remesh.faces.len()];
+    for &(fi, g, (a, b)) in &joins {
+        // f = (a, b, c) rotated, h = (b, a, d): the quad (a, d, b, c).
+        let f = &remesh.faces[fi];
+        let k = (0..3).find(|&k| f[k] == a).unwrap_or(0);
+        let c = f[(k + 2) % 3];
+        let h = &remesh.faces[g];
+        let Some(d) = h.iter().copied().find(|&v| v != a && v != b) else {
+            continue;
+        };
+        remesh.faces[fi] = vec![a, d, b, c];
+        gone[g] = true;
+        stats.joined_triangles += 1;
+    }
+    let mut i = 0;
+    remesh.faces.retain(|_| {
+        i += 1;
+        !gone[i - 1]
+    });
+}
+
+/// Step 2b: joins odd faces pairwise, or to the boundary, through the dual graph.
 fn pair_odd_faces(remesh: &mut Remesh, stats: &mut PurifyStats) {
     // Faces no path can reach a partner from (only with inconsistent orientations, where the
     // handshake argument fails): left odd.
@@ -403,7 +477,7 @@ fn split_faces(remesh: &mut Remesh, sides: usize, stats: &mut PurifyStats) {
 }
 
 /// Drops vertices no face or polyline uses any more (collapsed ones), renumbering the rest.
-fn compact(remesh: &mut Remesh) {
+pub(super) fn compact(remesh: &mut Remesh) {
     let n = remesh.positions.len();
     let mut used = vec![false; n];
     for v in remesh

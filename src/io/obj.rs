@@ -29,6 +29,20 @@ pub struct ObjData {
     pub corner_uvs: Option<Vec<[f64; 2]>>,
     /// `l` records: 0-based vertex indices of each polyline.
     pub polylines: Vec<Vec<u32>>,
+    /// Quads `f a b p p` with one vertex twice (the star faces of a pole, as `quadcover solve`
+    /// writes them): read as the triangle (a, b, p), `soup.triangles[triangle]`, whose quad
+    /// texture coordinates (a, b, q_{j+1}, q_j) are kept here (with UVs only).
+    pub pole_quads: Vec<PoleQuad>,
+}
+
+/// A quad read as a triangle because two consecutive corners share their vertex.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PoleQuad {
+    pub triangle: usize,
+    /// The repeated vertex (the pole).
+    pub pole: u32,
+    /// Texture coordinates of (a, b, q_{j+1}, q_j): the two pole corners last.
+    pub uv: [[f64; 2]; 4],
 }
 
 /// One `f` or `l` record: corners `[start, start + len)` of the corner arrays.
@@ -130,11 +144,46 @@ pub fn read_obj_bytes(bytes: &[u8]) -> Result<ObjData, ReadError> {
             builder.known_edges(edges);
         }
     }
+    let mut pole_quads = Vec::new();
+    let mut rotated: Vec<Corner> = Vec::new();
     for (face, rec) in faces.iter().enumerate() {
-        let cs = &corners[rec.start..rec.start + rec.len];
+        let mut cs = &corners[rec.start..rec.start + rec.len];
         poly.clear();
         for c in cs {
             poly.push(check_index(c.v, c.written, nv, face, Some(rec.line))?);
+        }
+        // A pole quad a b p p (in any rotation): the triangle a b p, its quad UVs aside.
+        if poly.len() == 4 {
+            let rep: Vec<usize> = (0..4).filter(|&k| poly[k] == poly[(k + 1) % 4]).collect();
+            let distinct = {
+                let mut v = poly.clone();
+                v.sort_unstable();
+                v.dedup();
+                v.len()
+            };
+            if rep.len() == 1 && distinct == 3 {
+                let k = rep[0]; // corners k and k + 1 are the pole
+                rotated.clear();
+                rotated.extend((0..4).map(|i| cs[(k + 2 + i) % 4]));
+                cs = &rotated[..3];
+                let p4 = poly.clone();
+                poly.clear();
+                poly.extend((0..3).map(|i| p4[(k + 2 + i) % 4]));
+                if with_uvs {
+                    let t = builder.soup.triangles.len();
+                    let uv = |c: &Corner| texcoords[c.vt.unwrap_or(0) as usize];
+                    pole_quads.push(PoleQuad {
+                        triangle: t,
+                        pole: poly[2],
+                        uv: [
+                            uv(&rotated[0]),
+                            uv(&rotated[1]),
+                            uv(&rotated[2]),
+                            uv(&rotated[3]),
+                        ],
+                    });
+                }
+            }
         }
         let apex = builder.push_polygon(&poly, Some(rec.line))?;
         if with_uvs {
@@ -184,6 +233,7 @@ pub fn read_obj_bytes(bytes: &[u8]) -> Result<ObjData, ReadError> {
         soup: builder.finish()?,
         corner_uvs: with_uvs.then_some(corner_uvs),
         polylines,
+        pole_quads,
     })
 }
 

@@ -141,6 +141,44 @@ fn torus_mesh(big_r: f64, r: f64, nu: usize, nv: usize, alternate: bool) -> TriM
     build(p, f)
 }
 
+/// A unit UV sphere: `rings` latitude bands, `segments` meridians, one vertex at each pole
+/// (vertex 0 north, the last one south) with a fan of `segments` triangles; the bands' quads
+/// are split along alternating diagonals.
+pub fn uv_sphere(rings: usize, segments: usize) -> TriMesh {
+    let (rings, segments) = (rings.max(2), segments.max(3));
+    let mut p = vec![DVec3::Z];
+    for i in 1..rings {
+        let theta = std::f64::consts::PI * i as f64 / rings as f64;
+        for j in 0..segments {
+            let phi = std::f64::consts::TAU * j as f64 / segments as f64;
+            p.push(DVec3::new(
+                theta.sin() * phi.cos(),
+                theta.sin() * phi.sin(),
+                theta.cos(),
+            ));
+        }
+    }
+    p.push(-DVec3::Z);
+    let south = (p.len() - 1) as u32;
+    let at = |i: usize, j: usize| (1 + (i - 1) * segments + j % segments) as u32;
+    let mut f = Vec::new();
+    for j in 0..segments {
+        f.push([0, at(1, j), at(1, j + 1)]);
+        f.push([south, at(rings - 1, j + 1), at(rings - 1, j)]);
+    }
+    for i in 1..rings - 1 {
+        for j in 0..segments {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            if (i + j) % 2 == 0 {
+                f.extend([[a, b, c], [a, c, d]]);
+            } else {
+                f.extend([[a, b, d], [b, c, d]]);
+            }
+        }
+    }
+    build(p, f)
+}
+
 /// A unit icosphere: the icosahedron subdivided `levels` times and projected to the sphere.
 pub fn icosphere(levels: usize) -> TriMesh {
     let t = (1.0 + 5f64.sqrt()) / 2.0;

@@ -47,6 +47,7 @@ pub fn bench_param(
             rounding: Rounding::Greedy,
             pure_quad: false,
             no_untangle: false,
+            no_poles: false,
         },
         ..qc
     };

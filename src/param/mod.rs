@@ -29,6 +29,7 @@ mod global;
 mod integer;
 mod local;
 mod metrics;
+mod poles;
 mod rot;
 mod system;
 mod untangle;
@@ -50,6 +51,7 @@ use crate::sparse::{Analysis, SolverError};
 
 pub use constraints::{ConstraintCurve, CurveFit};
 pub use local::curl_star;
+pub use poles::{FileQuad, Locus, Pole, Tessellation, poles_from_quads, tessellate};
 pub use rot::Lattice;
 
 use cut::CutGraph;
@@ -92,6 +94,9 @@ pub struct ParamOptions {
     pub pure_quad: bool,
     /// Skip the injectivity repair after the global step (`untangle`): folds stay.
     pub no_untangle: bool,
+    /// Skip alg. 6 for singularities of positive integral index (sec. 4.3): the PL map
+    /// degenerates around them (fig. 4.14, left). For comparisons.
+    pub no_poles: bool,
 }
 
 /// A frame field as QuadCover consumes it (see `FrameField` in docs/CONTRACTS.md): per face the
@@ -198,6 +203,13 @@ pub struct Parameterization {
     pub flipped_faces_before_repair: usize,
     /// Gaps the repair rounded again because their first rounding made folds unavoidable.
     pub rerounded_gaps: Vec<Rerounded>,
+    /// Singularities of positive integral index treated by alg. 6: their stars' triangles are
+    /// bilinear quads (`uv` keeps the triangles' own corners there, which are not seamless at
+    /// the pole: seams and folds of those faces are their quads').
+    pub poles: Vec<Pole>,
+    /// Poles alg. 6 could not treat (the star touches the boundary, another pole's star or a
+    /// constraint curve): the map degenerates around them.
+    pub untreated_poles: Vec<usize>,
     /// The curl of the guiding field: what the local step removes, Σ_f A_f ‖X_f − X*_f‖² over
     /// both frame rows (X* the curl*-free frames), in grid cells (thesis sec. 3.3 measures
     /// singularity placement by it).
@@ -247,6 +259,20 @@ pub struct QuadCover {
     global: GlobalSystem,
     opts: ParamOptions,
     pub timings: StageTimings,
+    /// The solver on the mesh with the poles' stars cut open (alg. 6), for the last set of
+    /// poles the frames had.
+    opened: std::sync::Mutex<Option<std::sync::Arc<Opened>>>,
+}
+
+/// The opened solver and the treated poles' indices.
+type OpenedFor = (std::sync::Arc<Opened>, Vec<(usize, f64)>);
+
+/// QuadCover on the mesh with the stars of `poles` cut open.
+struct Opened {
+    poles: Vec<usize>,
+    untreated: Vec<usize>,
+    mesh: TriMesh,
+    qc: QuadCover,
 }
 
 /// Gaps tried per round when the rounding made folds unavoidable ([`QuadCover::reround`]).
@@ -334,7 +360,89 @@ impl QuadCover {
                 global_ms,
                 repair_ms: 0.0,
             },
+            opened: Default::default(),
         })
+    }
+
+    /// The singularities of positive integral index the frames have, and the solver on the
+    /// mesh with the treatable ones' stars cut open (alg. 6, lines 1–5); `None` without poles
+    /// (or with `no_poles`). `blocked`: vertices on constraint curves.
+    fn opened(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[DVec3; 2]],
+        blocked: &[bool],
+    ) -> Result<Option<OpenedFor>, ParamError> {
+        if self.opts.no_poles || frames.len() != mesh.n_faces() {
+            return Ok(None);
+        }
+        let found: Vec<(usize, f64)> = (0..mesh.n_vertices())
+            .into_par_iter()
+            .filter(|&v| self.cut.holonomy[v] == 0 && !mesh.is_boundary_vertex(v))
+            .map(|v| {
+                (
+                    v,
+                    metrics::vertex_index(mesh, &self.cut, self.symmetry, frames, v),
+                )
+            })
+            .filter(|&(_, i)| poles::is_pole(0, i))
+            .collect();
+        if found.is_empty() {
+            return Ok(None);
+        }
+        let candidates: Vec<usize> = found.iter().map(|x| x.0).collect();
+        let (treat, untreated) = poles::treatable(mesh, &candidates, blocked);
+        if treat.is_empty() {
+            return Ok(None);
+        }
+        let indices: Vec<(usize, f64)> =
+            found.into_iter().filter(|x| treat.contains(&x.0)).collect();
+        let mut cache = self.opened.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(o) = cache.as_ref()
+            && o.poles == treat
+        {
+            return Ok(Some((o.clone(), indices)));
+        }
+        let open = poles::open(mesh, &treat)?;
+        let matchings = poles::open_matchings(
+            mesh,
+            &open,
+            &self
+                .cut
+                .matching
+                .iter()
+                .map(|&r| r as i32)
+                .collect::<Vec<_>>(),
+        );
+        let opts = ParamOptions {
+            no_poles: true,
+            ..self.opts.clone()
+        };
+        let qc = QuadCover::new(&open, self.symmetry, &matchings, opts)?;
+        let o = std::sync::Arc::new(Opened {
+            poles: treat,
+            untreated,
+            mesh: open,
+            qc,
+        });
+        *cache = Some(o.clone());
+        Ok(Some((o, indices)))
+    }
+
+    /// The opened mesh's solution as this mesh's (alg. 6, lines 7–9).
+    fn close(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[DVec3; 2]],
+        o: &Opened,
+        indices: &[(usize, f64)],
+        p: Parameterization,
+    ) -> Parameterization {
+        let mut p = poles::close(mesh, &o.mesh, &self.rots, indices, p);
+        p.singularities = self.singularities(mesh, frames);
+        p.untreated_poles = o.untreated.clone();
+        p.timings.cut_ms += self.timings.cut_ms;
+        p
     }
 
     pub fn n_cut_paths(&self) -> usize {
@@ -444,6 +552,10 @@ impl QuadCover {
         frames: &[[DVec3; 2]],
         cancel: CancelCheck<'_>,
     ) -> Result<Parameterization, ParamError> {
+        if let Some((o, indices)) = self.opened(mesh, frames, &[])? {
+            let p = o.qc.solve_until(&o.mesh, frames, cancel)?;
+            return Ok(self.close(mesh, frames, &o, &indices, p));
+        }
         let local = self.local_step(mesh, frames)?;
         let t = Instant::now();
         let gaps = self.round_gaps(mesh, &local)?;
@@ -497,6 +609,17 @@ impl QuadCover {
                     c.id
                 )));
             }
+        }
+        let mut blocked = vec![false; mesh.n_vertices()];
+        for c in curves {
+            for &v in c.vertices {
+                blocked[v] = true;
+            }
+        }
+        if let Some((o, indices)) = self.opened(mesh, frames, &blocked)? {
+            let p =
+                o.qc.solve_with_curves_until(&o.mesh, frames, curves, cancel)?;
+            return Ok(self.close(mesh, frames, &o, &indices, p));
         }
         let local = self.local_step(mesh, frames)?;
         let t = Instant::now();
@@ -680,6 +803,21 @@ impl QuadCover {
         p
     }
 
+    /// Interior vertices of non-zero index. In parallel (an index per vertex, 50 ms at 70 k
+    /// faces alone); the order is kept.
+    fn singularities(&self, mesh: &TriMesh, frames: &[[DVec3; 2]]) -> Vec<Singularity> {
+        (0..mesh.n_vertices())
+            .into_par_iter()
+            .filter(|&v| !mesh.is_boundary_vertex(v))
+            .map(|v| Singularity {
+                vertex: v,
+                index: metrics::vertex_index(mesh, &self.cut, self.symmetry, frames, v),
+                holonomy: self.cut.holonomy[v],
+            })
+            .filter(|s| s.holonomy != 0 || s.index != 0.0)
+            .collect()
+    }
+
     fn finish(
         &self,
         mesh: &TriMesh,
@@ -696,17 +834,7 @@ impl QuadCover {
             .collect();
         let seam_max_error = metrics::seam_error(mesh, &self.rots, &uv, &trans, self.lattice);
         let q = metrics::quality(mesh, &uv);
-        // In parallel (an index per vertex, 50 ms at 70 k faces alone); the order is kept.
-        let singularities = (0..mesh.n_vertices())
-            .into_par_iter()
-            .filter(|&v| !mesh.is_boundary_vertex(v))
-            .map(|v| Singularity {
-                vertex: v,
-                index: metrics::vertex_index(mesh, &self.cut, self.symmetry, frames, v),
-                holonomy: self.cut.holonomy[v],
-            })
-            .filter(|s| s.holonomy != 0 || s.index != 0.0)
-            .collect();
+        let singularities = self.singularities(mesh, frames);
         Parameterization {
             symmetry: self.symmetry,
             lattice: self.lattice,
@@ -725,6 +853,8 @@ impl QuadCover {
             flipped_faces: q.flipped,
             flipped_faces_before_repair: q.flipped,
             rerounded_gaps: Vec::new(),
+            poles: Vec::new(),
+            untreated_poles: Vec::new(),
             curl: 0.0,
             seam_max_error,
             curves: Vec::new(),
