@@ -245,8 +245,8 @@ fn scripted_moves_merges_and_cancellations_on_spot() {
     assert_eq!(replay.skipped[0].position, 1);
     assert_eq!(replay.last(), &s1);
 
-    // Poles are refused until they are supported: four +1/4 into one would make +4/4; here
-    // +2/4 (s3) plus two more +1/4.
+    // Poles are allowed by default (alg. 6 treats them), refused with no_pole_merges: four
+    // +1/4 into one make +4/4; here +2/4 (s3) plus two more +1/4.
     let more: Vec<usize> = s3
         .singularities
         .iter()
@@ -255,8 +255,23 @@ fn scripted_moves_merges_and_cancellations_on_spot() {
         .collect();
     let s4 = mv(&base, &s3, more[0], pos[1]).unwrap();
     assert_eq!(s4.singularities[&pos[1]], 3);
-    let err = mv(&base, &s4, more[1], pos[1]).unwrap_err().to_string();
-    assert!(err.contains("pole"), "{err}");
+    let s5 = mv(&base, &s4, more[1], pos[1]).unwrap();
+    let mut expected = file_set(&base, &s4);
+    expected.remove(&fv(more[1]));
+    expected.insert(fv(pos[1]), 4);
+    assert_eq!(file_set(&base, &s5), expected);
+    let no_poles = base
+        .with_settings(Settings {
+            no_pole_merges: true,
+            ..Settings::default()
+        })
+        .unwrap()
+        .unwrap();
+    let err = mv(&no_poles, &s4, more[1], pos[1]).unwrap_err().to_string();
+    assert!(
+        err.contains("pole") && err.contains("no_pole_merges"),
+        "{err}"
+    );
 }
 
 #[test]

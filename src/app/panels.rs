@@ -251,6 +251,11 @@ impl EditorApp {
              remesh (N = 4; more distortion than the thesis's ½Z²)",
         );
         ui.checkbox(&mut d.no_half_merges, "No half merges (refuse ±2/4)");
+        ui.checkbox(&mut d.no_pole_merges, "No pole merges (refuse +N/N)")
+            .on_hover_text(
+                "Refuse merges that would create a pole (positive integral index, e.g. four \
+                 +1/4 into +4/4); allowed by default: the pole's star becomes bilinear quads",
+            );
         let mut untangle = !d.no_untangle;
         ui.checkbox(&mut untangle, "Untangle folds").on_hover_text(
             "Repair the folded faces the global step leaves (an injectivity repair of the map)",

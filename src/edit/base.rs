@@ -289,6 +289,7 @@ impl Base {
         MergeRules {
             n: self.settings.symmetry,
             no_half_merges: self.settings.no_half_merges,
+            no_pole_merges: self.settings.no_pole_merges,
         }
     }
 

@@ -60,16 +60,19 @@ pub(crate) type Refusal = String;
 pub(crate) struct MergeRules {
     pub n: u32,
     pub no_half_merges: bool,
+    /// Refuse merges that would create a pole (positive integral index, e.g. +4/4). Allowed
+    /// by default: QuadCover treats poles by alg. 6 (sec. 4.3; bilinear quads on the star).
+    pub no_pole_merges: bool,
 }
 
 impl MergeRules {
     /// Whether a singularity of index k/N may exist after a merge.
     pub fn check(&self, k: i32) -> Result<(), Refusal> {
         let n = self.n as i32;
-        if k > 0 && k % n == 0 {
+        if self.no_pole_merges && k > 0 && k % n == 0 {
             return Err(format!(
-                "it would create a singularity of index +{k}/{n}, a pole (positive integral \
-                 index), which a piecewise-linear map cannot represent; poles are not supported yet"
+                "it would create a singularity of index +{k}/{n} (a pole, positive integral \
+                 index), and no_pole_merges is on"
             ));
         }
         if self.no_half_merges && n == 4 && k.abs() == 2 {
@@ -148,27 +151,43 @@ mod tests {
     use super::MergeRules;
 
     #[test]
-    fn merges_refuse_poles_and_optionally_hanging_nodes() {
-        let rules = |n, no_half_merges| MergeRules { n, no_half_merges };
-        // Poles (positive integral index) are refused for every N; saddles are not.
-        assert!(rules(2, false).check(2).unwrap_err().contains("pole"));
-        assert!(rules(2, false).check(-2).is_ok());
-        assert!(rules(4, false).check(4).unwrap_err().contains("+4/4"));
-        assert!(rules(4, false).check(8).is_err());
-        assert!(rules(4, false).check(-4).is_ok());
-        assert!(rules(6, false).check(6).is_err());
-        assert!(rules(6, false).check(3).is_ok());
-        // ±2/4 only with no_half_merges, and only for N = 4.
-        assert!(rules(4, false).check(2).is_ok());
+    fn merges_refuse_poles_and_hanging_nodes_when_asked() {
+        let rules = |n, no_half_merges, no_pole_merges| MergeRules {
+            n,
+            no_half_merges,
+            no_pole_merges,
+        };
+        // Poles (positive integral index) are allowed by default (alg. 6 treats them).
+        for (n, k) in [(2, 2), (4, 4), (4, 8), (6, 6)] {
+            assert!(rules(n, false, false).check(k).is_ok(), "{k}/{n}");
+            assert!(rules(n, true, false).check(k).is_ok(), "{k}/{n}");
+        }
+        // no_pole_merges refuses them for every N, naming the index and the setting; saddles
+        // (negative integral index) and fractional indices stay allowed.
+        let e = rules(4, false, true).check(4).unwrap_err();
         assert!(
-            rules(4, true)
+            e.contains("+4/4") && e.contains("pole") && e.contains("no_pole_merges"),
+            "{e}"
+        );
+        assert!(rules(2, false, true).check(2).unwrap_err().contains("+2/2"));
+        assert!(rules(4, false, true).check(8).is_err());
+        assert!(rules(6, false, true).check(6).is_err());
+        assert!(rules(2, false, true).check(-2).is_ok());
+        assert!(rules(4, false, true).check(-4).is_ok());
+        assert!(rules(4, false, true).check(3).is_ok());
+        assert!(rules(6, false, true).check(3).is_ok());
+        assert!(rules(4, false, true).check(2).is_ok());
+        // ±2/4 only with no_half_merges, and only for N = 4.
+        assert!(rules(4, false, false).check(2).is_ok());
+        assert!(
+            rules(4, true, false)
                 .check(2)
                 .unwrap_err()
                 .contains("no_half_merges")
         );
-        assert!(rules(4, true).check(-2).is_err());
-        assert!(rules(4, true).check(-3).is_ok());
-        assert!(rules(6, true).check(2).is_ok());
-        assert!(rules(4, true).check(0).is_ok());
+        assert!(rules(4, true, false).check(-2).is_err());
+        assert!(rules(4, true, false).check(-3).is_ok());
+        assert!(rules(6, true, false).check(2).is_ok());
+        assert!(rules(4, true, false).check(0).is_ok());
     }
 }
