@@ -20,7 +20,7 @@ use serde::Serialize;
 
 use crate::mesh::TriMesh;
 
-use super::rot::{Rots, apply};
+use super::rot::{M2, Rots, apply};
 use super::{EdgeTransition, ParamError, Parameterization};
 
 /// A treated pole: its star's triangles are bilinear quads in the output.
@@ -308,20 +308,16 @@ pub(crate) fn close(
             let ra = apply(m, uv[ck]);
             trans.push((rho.rem_euclid(n), [uv[ck1][0] - ra[0], uv[ck1][1] - ra[1]]));
         }
-        // q_k in chart k (eq. 4.3) and in chart k − 1.
+        // q_k in chart k (eq. 4.3).
         let mut q_here = Vec::with_capacity(d);
-        let mut q_before = Vec::with_capacity(d);
         for k in 0..d {
             let (rho, tau) = trans[k];
-            let m = rots.get(rho);
             let mi = rots.get(-rho);
             let pk = uv[hs[k]];
             let pk1 = uv[hs[(k + d - 1) % d]];
             let back = apply(mi, [pk1[0] - tau[0], pk1[1] - tau[1]]);
             let q = [(pk[0] + back[0]) / 2.0, (pk[1] + back[1]) / 2.0];
-            let qa = apply(m, q);
             q_here.push(q);
-            q_before.push([qa[0] + tau[0], qa[1] + tau[1]]);
             // The input edge (p, a_k): uv_{face(h1)} = R^t uv_{face(h0)} + translation.
             let e = mesh.edge(hs[k]);
             let (h0, _) = mesh.edge_halfedges(e);
@@ -338,13 +334,21 @@ pub(crate) fn close(
                 }
             };
         }
+        let outer: Vec<[[f64; 2]; 2]> = hs
+            .iter()
+            .map(|&h| [uv[mesh.next(h)], uv[mesh.prev(h)]])
+            .collect();
+        let maps: Vec<(M2, [f64; 2])> = trans.iter().map(|&(r, t)| (*rots.get(r), t)).collect();
+        unfold_quads(&outer, &maps, &mut q_here);
         let quads = (0..d)
             .map(|j| {
-                let hj = hs[j];
+                let k = (j + 1) % d;
+                let (m, t) = &maps[k];
+                let qb = apply(m, q_here[k]);
                 [
-                    uv[mesh.next(hj)],
-                    uv[mesh.prev(hj)],
-                    q_before[(j + 1) % d],
+                    outer[j][0],
+                    outer[j][1],
+                    [qb[0] + t[0], qb[1] + t[1]],
                     q_here[j],
                 ]
             })
@@ -449,4 +453,98 @@ pub fn poles_from_quads(mesh: &TriMesh, quads: &[FileQuad]) -> Result<Vec<Pole>,
         });
     }
     Ok(out)
+}
+
+/// The smallest corner cross product of a quad (positive for every corner: the bilinear map
+/// is injective and orientation preserving).
+fn min_corner(q: &[[f64; 2]; 4]) -> f64 {
+    (0..4)
+        .map(|k| {
+            let (a, b, c) = (q[(k + 3) % 4], q[k], q[(k + 1) % 4]);
+            (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0])
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Eq. 4.3 places the inner corners q_k at the average of the pole copies beside star edge k;
+/// where the outer ring runs backwards (a jittery field right at the pole) a quad can fold even
+/// though every opened triangle is positive. The q_k are free (nothing outside the star sees
+/// them), so each one of a folded quad moves, within a box the size of its distance to a_k, to
+/// where the smaller corner of its two quads is largest (grid search, refined three times),
+/// sweeping until no quad folds. `outer[j]`: a_j, a_{j+1} in chart j; `maps[k]`: chart k to
+/// chart k − 1; `q[k]`: q_k in chart k.
+fn unfold_quads(outer: &[[[f64; 2]; 2]], maps: &[(M2, [f64; 2])], q: &mut [[f64; 2]]) {
+    let d = q.len();
+    let before = |q: &[[f64; 2]], k: usize| {
+        let (m, t) = &maps[k];
+        let x = apply(m, q[k]);
+        [x[0] + t[0], x[1] + t[1]]
+    };
+    let quad = |q: &[[f64; 2]], j: usize| {
+        let k = (j + 1) % d;
+        [outer[j][0], outer[j][1], before(q, k), q[j]]
+    };
+    let folds = |q: &[[f64; 2]]| (0..d).filter(|&j| !(min_corner(&quad(q, j)) > 0.0)).count();
+    let start = folds(q);
+    if start == 0 {
+        return;
+    }
+    // A margin in squared ring edge lengths, so that corners end clearly positive.
+    let ring: f64 = outer
+        .iter()
+        .map(|e| (e[1][0] - e[0][0]).hypot(e[1][1] - e[0][1]))
+        .sum::<f64>()
+        / d as f64;
+    let margin = 1e-3 * ring * ring;
+    // Σ of the corners' shortfall below the margin (concave in each q_k: corner crosses are
+    // affine in one corner).
+    let shortfall = |c: &[[f64; 2]; 4]| -> f64 {
+        (0..4)
+            .map(|i| {
+                let (a, b, e) = (c[(i + 3) % 4], c[i], c[(i + 1) % 4]);
+                let x = (b[0] - a[0]) * (e[1] - b[1]) - (b[1] - a[1]) * (e[0] - b[0]);
+                (x - margin).min(0.0)
+            })
+            .sum()
+    };
+    let original = q.to_vec();
+    let mut trial = q.to_vec();
+    for _ in 0..20 {
+        if folds(q) == 0 {
+            break;
+        }
+        for k in 0..d {
+            let prev = (k + d - 1) % d;
+            trial.copy_from_slice(q);
+            let mut score = |x: [f64; 2]| {
+                trial[k] = x;
+                shortfall(&quad(&trial, k)) + shortfall(&quad(&trial, prev))
+            };
+            let mut best = (score(q[k]), q[k]);
+            if best.0 >= 0.0 {
+                continue;
+            }
+            let mut r = 2.0 * ring;
+            for _ in 0..4 {
+                let centre = best.1;
+                for i in -8..=8 {
+                    for j in -8..=8 {
+                        let x = [
+                            centre[0] + r * i as f64 / 8.0,
+                            centre[1] + r * j as f64 / 8.0,
+                        ];
+                        let s = score(x);
+                        if s > best.0 {
+                            best = (s, x);
+                        }
+                    }
+                }
+                r /= 4.0;
+            }
+            q[k] = best.1;
+        }
+    }
+    if folds(q) >= start {
+        q.copy_from_slice(&original);
+    }
 }
