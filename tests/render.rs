@@ -750,3 +750,251 @@ fn lic_of_computed_bunny_fields() {
         );
     }
 }
+
+/// Frames along the parallels of a sphere: U = the east direction projected into each face,
+/// V = n × U, `scale` grid units per unit length (a +1 pole at each of the poles).
+fn parallel_frames(mesh: &quadcover::mesh::TriMesh, scale: f64) -> Vec<[DVec3; 2]> {
+    (0..mesh.n_faces())
+        .map(|f| {
+            let [a, b, c] = mesh.faces()[f].map(|v| mesh.position(v as usize));
+            let m = (a + b + c) / 3.0;
+            let n = mesh.face_normal(f);
+            let east = DVec3::new(-m.y, m.x, 0.0);
+            let u = (east - n * n.dot(east)).normalize() * scale;
+            [u, n.cross(u)]
+        })
+        .collect()
+}
+
+/// The lines crossing circles around `c` (pixels) in `img`, for radii from `r0` to `r1` (every
+/// pixel): per radius the angles of the dark runs' centres along the circle. Radii within 4
+/// pixels of a ring (a circle mostly dark) are left out. Rays from `c` cross every circle once,
+/// all at the same angle.
+fn circle_crossings(
+    img: &image::RgbaImage,
+    c: (f32, f32),
+    r0: f32,
+    r1: f32,
+) -> Vec<(f32, Vec<f32>)> {
+    let lum = |x: f32, y: f32| luminance(img.get_pixel(x.round() as u32, y.round() as u32));
+    let circles: Vec<(f32, Vec<bool>)> = (0..)
+        .map(|i| r0 + i as f32)
+        .take_while(|&r| r <= r1)
+        .map(|r| {
+            // a quarter pixel along the circle
+            let n = (std::f32::consts::TAU * r * 4.0).ceil() as usize;
+            let l: Vec<f32> = (0..n)
+                .map(|j| {
+                    let a = std::f32::consts::TAU * j as f32 / n as f32;
+                    lum(c.0 + r * a.cos(), c.1 - r * a.sin())
+                })
+                .collect();
+            let mut sorted = l.clone();
+            sorted.sort_by(f32::total_cmp);
+            let thr = 0.75 * sorted[n * 9 / 10];
+            (r, l.iter().map(|&x| x < thr).collect())
+        })
+        .collect();
+    let rings: Vec<f32> = circles
+        .iter()
+        .filter(|(_, d)| d.iter().filter(|&&x| x).count() * 2 > d.len())
+        .map(|(r, _)| *r)
+        .collect();
+    let mut out = Vec::new();
+    for (r, dark) in &circles {
+        let n = dark.len();
+        if rings.iter().any(|q| (q - r).abs() <= 4.0) {
+            continue;
+        }
+        let Some(start) = (0..n).find(|&j| !dark[j]) else {
+            continue;
+        };
+        // runs of dark samples, walking once around from a light one
+        let mut centres = Vec::new();
+        let mut run: Option<usize> = None;
+        for i in 1..=n {
+            match (dark[(start + i) % n], run) {
+                (true, None) => run = Some(i),
+                (false, Some(s)) => {
+                    let mid = (start as f32 + 0.5 * (s + i - 1) as f32) % n as f32;
+                    centres.push(std::f32::consts::TAU * mid / n as f32);
+                    run = None;
+                }
+                _ => {}
+            }
+        }
+        centres.sort_by(f32::total_cmp);
+        out.push((*r, centres));
+    }
+    out
+}
+
+/// How well the crossings of [`circle_crossings`] are rays: (the share of circles crossed by
+/// the most frequent number of lines, that number, the largest distance in pixels between a
+/// crossing and its ray — the crossing at that angle on the outermost such circle).
+fn ray_consistency(crossings: &[(f32, Vec<f32>)]) -> (f64, usize, f32) {
+    let mut counts = std::collections::BTreeMap::new();
+    for (_, c) in crossings {
+        *counts.entry(c.len()).or_insert(0usize) += 1;
+    }
+    let (&mode, &hits) = counts.iter().max_by_key(|(_, h)| **h).expect("circles");
+    let share = hits as f64 / crossings.len() as f64;
+    let Some((_, reference)) = crossings.iter().rev().find(|(_, c)| c.len() == mode) else {
+        return (share, mode, f32::INFINITY);
+    };
+    let mut worst = 0.0f32;
+    for (r, c) in crossings
+        .iter()
+        .filter(|(_, c)| c.len() == mode && mode > 0)
+    {
+        // the same rays, sorted by angle, up to where the walk around started
+        let best = (0..mode)
+            .map(|shift| {
+                (0..mode)
+                    .map(|i| {
+                        let d = (c[(i + shift) % mode] - reference[i])
+                            .rem_euclid(std::f32::consts::TAU);
+                        r * d.min(std::f32::consts::TAU - d)
+                    })
+                    .fold(0.0f32, f32::max)
+            })
+            .fold(f32::INFINITY, f32::min);
+        worst = worst.max(best);
+    }
+    (share, mode, worst)
+}
+
+/// A pole's star is drawn by its bilinear quads (tessellated), not by its linear triangles:
+/// on a sphere with frames along the parallels, seen from above the north pole (a +1 pole),
+/// the quad grid shows rings around the pole and rays converging at it, each line crossing
+/// every circle around the pole at the same angle. The star triangles' own corner UVs disagree
+/// at the pole: drawn linearly, lines break off before the pole and jump across the star's
+/// edges, and the check fails on that image.
+#[test]
+fn pole_stars_render_bilinear_without_seam() {
+    use quadcover::app::document::{LoadedDocument, MeshStats, ParamDisplay};
+    use quadcover::param::{ParamOptions, QuadCover, fit_matchings};
+    let Some(mut off) = offscreen() else { return };
+    let mesh = quadcover::mesh::generate::uv_sphere(24, 32);
+    let frames = parallel_frames(&mesh, 4.0);
+    let m = fit_matchings(&mesh, 4, &frames);
+    let p = QuadCover::new(&mesh, 4, &m, ParamOptions::default())
+        .unwrap()
+        .solve(&mesh, &frames)
+        .unwrap();
+    let pole = p
+        .poles
+        .iter()
+        .find(|q| q.vertex == 0)
+        .expect("north pole treated");
+    // the editor's path: the document takes the result and builds the scene with the patches
+    let mut doc = Document::default();
+    let mesh = std::sync::Arc::new(mesh);
+    doc.set_loaded(LoadedDocument {
+        path: None,
+        name: "uv_sphere".into(),
+        mesh: mesh.clone(),
+        to_file: (0..mesh.n_vertices() as u32).collect(),
+        file_vertices: mesh.n_vertices(),
+        sha256: String::new(),
+        warnings: Vec::new(),
+        stats: MeshStats::from(&mesh.topology()),
+        scene: SceneData::from_trimesh(&mesh),
+    });
+    doc.set_parameterization(p.clone(), true);
+    let bilinear = doc.scene().expect("scene").as_ref().clone();
+    let display = ParamDisplay::from_parameterization(&mesh, &p);
+    assert_eq!(doc.param.as_ref(), Some(&display));
+    let mut linear = SceneData::from_trimesh(&mesh);
+    linear.set_corner_uvs(&display.corner_uvs);
+    assert!(bilinear.has_uv);
+    assert_eq!(bilinear.n_faces(), mesh.n_faces());
+    assert!(
+        pole.faces
+            .iter()
+            .all(|&f| bilinear.patch_faces.contains(&(f as u32)))
+    );
+    // looking down −z at the north pole (image x = world x, image y up = world y)
+    let cam = OrbitCamera {
+        target: Vec3::Z,
+        yaw: 0.0,
+        pitch: 0.0,
+        distance: 0.5,
+        radius: 1.0,
+        ..OrbitCamera::default()
+    };
+    let scale = 4.0;
+    let settings = DisplaySettings {
+        mode: DisplayMode::Pattern,
+        pattern: Pattern::QuadGrid,
+        pattern_scale: scale,
+        line_width: 2.0,
+        show_lines: false,
+        ..plain_settings()
+    };
+    let (w, h) = (480u32, 480u32);
+    let vp = cam.view_proj(1.0);
+    let to_px = |p: DVec3| {
+        let q = vp.project_point3(p.as_vec3());
+        ((q.x + 1.0) * 0.5 * w as f32, (1.0 - q.y) * 0.5 * h as f32)
+    };
+    let centre = to_px(mesh.position(0));
+    // the star's inner radius on screen: the nearest ring vertex
+    let star = pole
+        .ring
+        .iter()
+        .map(|&a| {
+            let q = to_px(mesh.position(a));
+            (q.0 - centre.0).hypot(q.1 - centre.1)
+        })
+        .fold(f32::INFINITY, f32::min);
+    assert!(star > 150.0 && star < 235.0, "star radius {star} px");
+    // grid lines through the pole: the texture length of the quads' inner (collapsed) edges
+    let winding: f64 = pole
+        .quads
+        .iter()
+        .map(|q| DVec2::from(q[2]).distance(DVec2::from(q[3])))
+        .sum();
+    let rays = (winding * scale as f64).round() as usize;
+    assert!(rays >= 8, "{rays} grid lines through the pole");
+
+    off.upload(&bilinear);
+    let img = off.render(&cam, &settings, w, h);
+    save(&img, "sphere_pole_bilinear.png");
+    let wire = DisplaySettings {
+        wireframe: true,
+        line_width: 1.2,
+        show_lines: false,
+        ..plain_settings()
+    };
+    let wire_new = off.render(&cam, &wire, w, h);
+    save(&wire_new, "sphere_pole_bilinear_wire.png");
+    off.upload(&linear);
+    let old = off.render(&cam, &settings, w, h);
+    save(&old, "sphere_pole_linear.png");
+    let wire_old = off.render(&cam, &wire, w, h);
+
+    let (share, mode, off_ray) =
+        ray_consistency(&circle_crossings(&img, centre, 0.3 * star, 0.95 * star));
+    let (old_share, old_mode, old_off) =
+        ray_consistency(&circle_crossings(&old, centre, 0.3 * star, 0.95 * star));
+    eprintln!(
+        "bilinear: {share:.2} of the circles crossed by {mode} lines (expected {rays}), at most {off_ray:.1} px off their rays; linear triangles: {old_share:.2} crossed by {old_mode}, {old_off:.1} px"
+    );
+    assert!(
+        share > 0.9 && mode == rays && off_ray < 2.5,
+        "pole star not seamless: {share:.2} of the circles crossed by {mode} lines (expected {rays}), {off_ray:.1} px off their rays"
+    );
+    assert!(
+        old_share < 0.6,
+        "the linear star triangles pass the check too ({old_share:.2}, {old_mode} lines)"
+    );
+    // The wireframe is the mesh's, not the patches' cells: it looks the same drawn either way.
+    let diff = wire_new
+        .pixels()
+        .zip(wire_old.pixels())
+        .map(|(a, b)| (luminance(a) - luminance(b)).abs())
+        .sum::<f32>()
+        / (w * h) as f32;
+    assert!(diff < 0.01, "wireframe differs by {diff:.4} on average");
+}

@@ -16,7 +16,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
-use super::scene::{LineSegment, SceneData, singularity_color};
+use super::scene::{FacePatches, LineSegment, SceneData, singularity_color};
 use super::settings::DisplaySettings;
 use crate::edit::project::{relative_mesh_path, sha256_hex};
 use crate::edit::{
@@ -64,10 +64,22 @@ impl FieldDisplay {
     }
 }
 
-/// A parameterization result: per-corner UVs indexed `3*f + k`.
-#[derive(Clone, Debug, PartialEq)]
+/// A parameterization result: per-corner UVs indexed `3*f + k`, and the triangles drawing the
+/// faces where the map is not linear (the poles' bilinear stars; empty for most maps).
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ParamDisplay {
     pub corner_uvs: Vec<[f64; 2]>,
+    pub patches: FacePatches,
+}
+
+impl ParamDisplay {
+    /// The display of a QuadCover result on `mesh`: its UVs, its pole stars tessellated.
+    pub fn from_parameterization(mesh: &TriMesh, p: &crate::param::Parameterization) -> Self {
+        ParamDisplay {
+            corner_uvs: p.uv.clone(),
+            patches: FacePatches::from_poles(mesh, &p.poles),
+        }
+    }
 }
 
 /// Whether the injectivity repair ran on the map shown.
@@ -81,11 +93,13 @@ pub enum FoldRepair {
     None,
 }
 
-/// The folded faces of the map shown ([`crate::param::folded_faces`] of its UVs), found once
-/// per result (the overlay and the panel's count read them).
+/// The folded faces of the map shown ([`crate::param::folded_faces`] of its UVs; a pole's
+/// star faces by their bilinear quads), found once per result (the overlay and the panel's
+/// count read them).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Folds {
-    /// Faces whose texture triangle has non-positive signed area.
+    /// Faces whose texture triangle has non-positive signed area (for a pole's star faces:
+    /// whose quad folds, [`crate::param::Pole::quad_folded`]).
     pub faces: Vec<usize>,
     pub repair: FoldRepair,
 }
@@ -96,6 +110,26 @@ impl Folds {
             faces: crate::param::folded_faces(uv),
             repair,
         }
+    }
+
+    /// Like [`Folds::new`] for a map with poles: a star face is shown as the bilinear quad
+    /// its triangle's UVs do not describe, so it is folded when its quad is (as the core counts
+    /// `Parameterization::flipped_faces`).
+    pub fn with_poles(uv: &[[f64; 2]], poles: &[crate::param::Pole], repair: FoldRepair) -> Folds {
+        let mut folds = Folds::new(uv, repair);
+        if poles.is_empty() {
+            return folds;
+        }
+        let star: std::collections::HashSet<usize> =
+            poles.iter().flat_map(|p| p.faces.iter().copied()).collect();
+        folds.faces.retain(|f| !star.contains(f));
+        for p in poles {
+            let quads = (0..p.faces.len()).filter(|&j| p.quad_folded(j));
+            folds.faces.extend(quads.map(|j| p.faces[j]));
+        }
+        folds.faces.sort_unstable();
+        folds.faces.dedup();
+        folds
     }
 
     /// The panel's line: "N folded faces (M before repair)", "No folded faces", ….
@@ -946,9 +980,13 @@ impl Document {
             p.conformal_distortion.mean,
             p.curl
         );
-        self.folds = Some(Arc::new(Folds::new(&p.uv, repair)));
-        self.param = Some(ParamDisplay {
-            corner_uvs: p.uv.clone(),
+        self.folds = Some(Arc::new(Folds::with_poles(&p.uv, &p.poles, repair)));
+        self.param = Some(match &self.mesh {
+            Some(mesh) => ParamDisplay::from_parameterization(mesh, &p),
+            None => ParamDisplay {
+                corner_uvs: p.uv.clone(),
+                ..Default::default()
+            },
         });
         self.param_key = param_key(&p);
         self.parameterization = Some(p);
@@ -1060,6 +1098,7 @@ impl Document {
         let mut scene = base.clone();
         if let Some(p) = &self.param {
             scene.set_corner_uvs(&p.corner_uvs);
+            scene.set_patches(&p.patches);
         }
         if let Some(f) = &self.field {
             scene.set_face_field(&f.face_dirs, f.symmetry);
@@ -1086,5 +1125,30 @@ impl Document {
             }
         }
         self.scene = Some(Arc::new(scene));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn star_faces_fold_by_their_quads() {
+        // faces 0 and 1 of a pole's star: 0's triangle folds but its quad does not, 1's quad
+        // folds; face 2 is outside the star, its triangle folds
+        let good = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+        let pole = crate::param::Pole {
+            vertex: 0,
+            index: 1.0,
+            faces: vec![0, 1],
+            ring: vec![1, 2],
+            quads: vec![good, [good[1], good[0], good[2], good[3]]],
+        };
+        let flipped = [[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]];
+        let upright = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+        let uv: Vec<[f64; 2]> = [flipped, upright, flipped].concat();
+        assert_eq!(Folds::new(&uv, FoldRepair::None).faces, vec![0, 2]);
+        let folds = Folds::with_poles(&uv, &[pole], FoldRepair::None);
+        assert_eq!(folds.faces, vec![1, 2]);
     }
 }

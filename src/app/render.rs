@@ -200,10 +200,24 @@ struct TargetLayouts {
     result: wgpu::BindGroupLayout,
 }
 
+/// Linear RGBA of the wireframe (the mesh shader's).
+pub const WIRE_COLOR: [f32; 4] = [0.02, 0.02, 0.03, 0.85];
+
+/// The wireframe's colour as the lines drawn for the faces drawn by patches
+/// ([`SceneData::set_patches`]): the line shader blends in sRGB-encoded values where the mesh
+/// shader mixes the wireframe in linear ones, so the same opacity would draw these edges much
+/// darker; this one puts as much ink on a light surface as the mesh's wireframe does.
+pub const PATCH_WIRE_COLOR: [f32; 4] = [0.02, 0.02, 0.03, 0.72];
+
 /// Buffers of one uploaded scene. Built once per document change.
 struct GpuScene {
     vertices: wgpu::Buffer,
     n_vertices: u32,
+    /// The input faces' corners (`3 * SceneData::n_faces()`); the patches' follow
+    /// ([`SceneData::set_patches`]) and are drawn without the shader's wireframe.
+    n_surface: u32,
+    /// The replaced faces' edges as lines of the wireframe's colour, drawn for the wireframe.
+    patch_wire: Option<(wgpu::Buffer, u32)>,
     lines: Option<(wgpu::Buffer, u32)>,
     glyphs: Option<(wgpu::Buffer, u32)>,
     has_uv: bool,
@@ -232,6 +246,12 @@ pub struct Renderer {
     /// pipelines draw them with this bind group.
     fine_uniform_buffer: wgpu::Buffer,
     fine_bind_group: wgpu::BindGroup,
+    /// The uniforms again without the wireframe and with the wireframe's width as the line
+    /// width: the scene's patches (pole stars) are drawn with `patch_mesh_bind_group` (their
+    /// cells are no mesh edges) and the replaced faces' edges with `patch_overlay_bind_group`.
+    patch_uniform_buffer: wgpu::Buffer,
+    patch_mesh_bind_group: wgpu::BindGroup,
+    patch_overlay_bind_group: wgpu::BindGroup,
     /// The remesh's polygons, fan-triangulated, drawn instead of the surface in
     /// [`RemeshDisplay::Only`] ([`Renderer::sync_remesh_surface`]).
     remesh_surface: Option<GpuSurface>,
@@ -602,11 +622,26 @@ impl Renderer {
                 resource: fine_uniform_buffer.as_entire_binding(),
             }],
         });
-        let (pattern_view, mesh_bind_group) = {
+        let patch_uniform_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("quadcover patch uniforms"),
+            size: std::mem::size_of::<Uniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let patch_overlay_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("quadcover patch overlay bg"),
+            layout: &overlay_bgl,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: patch_uniform_buffer.as_entire_binding(),
+            }],
+        });
+        let (pattern_view, mesh_bind_group, patch_mesh_bind_group) = {
             let (w, h, rgba) = default_pattern_image();
             let view = upload_rgba(device, queue, w, h, &rgba);
             let bg = mesh_bind_group(device, &mesh_bgl, &uniform_buffer, &view, &sampler);
-            (view, bg)
+            let patch = mesh_bind_group(device, &mesh_bgl, &patch_uniform_buffer, &view, &sampler);
+            (view, bg, patch)
         };
         Renderer {
             mesh_pipeline,
@@ -622,6 +657,9 @@ impl Renderer {
             overlay_bind_group,
             fine_uniform_buffer,
             fine_bind_group,
+            patch_uniform_buffer,
+            patch_mesh_bind_group,
+            patch_overlay_bind_group,
             remesh_surface: None,
             sampler,
             pattern_view,
@@ -643,9 +681,24 @@ impl Renderer {
             usage: wgpu::BufferUsages::VERTEX,
         });
         let instances = |label, bytes: &[u8], n: usize| instance_buffer(device, label, bytes, n);
+        let wire: Vec<LineSegment> = scene
+            .patch_wire
+            .iter()
+            .map(|&[a, b]| LineSegment {
+                a,
+                b,
+                color: PATCH_WIRE_COLOR,
+            })
+            .collect();
         self.scene = Some(GpuScene {
             vertices,
             n_vertices: scene.vertices.len() as u32,
+            n_surface: (3 * scene.n_faces()) as u32,
+            patch_wire: instances(
+                "quadcover patch wire",
+                bytemuck::cast_slice(&wire),
+                wire.len(),
+            ),
             lines: instances(
                 "quadcover lines",
                 bytemuck::cast_slice(&scene.lines),
@@ -787,6 +840,13 @@ impl Renderer {
             &self.pattern_view,
             &self.sampler,
         );
+        self.patch_mesh_bind_group = mesh_bind_group(
+            device,
+            &self.mesh_bgl,
+            &self.patch_uniform_buffer,
+            &self.pattern_view,
+            &self.sampler,
+        );
     }
 
     pub fn uniforms(
@@ -818,7 +878,7 @@ impl Renderer {
             camera_pos: [eye.x, eye.y, eye.z, radius],
             light_dir: camera.light_dir().extend(0.18).to_array(),
             base_color: [b[0], b[1], b[2], 1.0],
-            wire_color: [0.02, 0.02, 0.03, 0.85],
+            wire_color: WIRE_COLOR,
             pattern_color: [0.03, 0.03, 0.05, 0.75],
             params: [
                 settings.pattern_scale,
@@ -866,6 +926,11 @@ impl Renderer {
     ) {
         let mut u = self.uniforms(camera, settings, target.width, target.height);
         queue.write_buffer(&self.uniform_buffer, 0, bytemuck::bytes_of(&u));
+        let wireframe = u.modes[2] == 1;
+        let mut patch = u;
+        patch.modes[2] = 0;
+        patch.params2[3] = settings.line_width;
+        queue.write_buffer(&self.patch_uniform_buffer, 0, bytemuck::bytes_of(&patch));
         u.params2[2] = dot_size_px(settings.glyph_size_px);
         u.params2[3] = fine_line_px(settings.line_width);
         queue.write_buffer(&self.fine_uniform_buffer, 0, bytemuck::bytes_of(&u));
@@ -897,16 +962,34 @@ impl Renderer {
         let Some(scene) = &self.scene else {
             return;
         };
-        let surface = match &self.remesh_surface {
-            Some(r) if self.remesh_only(settings) => (&r.vertices, r.n_vertices),
-            _ => (&scene.vertices, scene.n_vertices),
+        // The surface: its input faces, then the patches (pole stars) without the shader's
+        // wireframe and, for it, the replaced faces' edges as lines.
+        let remesh_only = self.remesh_only(settings);
+        let (surface, n, n_surface) = match &self.remesh_surface {
+            Some(r) if remesh_only => (&r.vertices, r.n_vertices, r.n_vertices),
+            _ => (&scene.vertices, scene.n_vertices, scene.n_surface),
         };
-        if surface.1 > 0 {
+        if n > 0 {
             pass.set_pipeline(&self.mesh_pipeline);
             pass.set_bind_group(0, &self.mesh_bind_group, &[]);
             pass.set_bind_group(1, &target.lic.result_bind_group, &[]);
-            pass.set_vertex_buffer(0, surface.0.slice(..));
-            pass.draw(0..surface.1, 0..1);
+            pass.set_vertex_buffer(0, surface.slice(..));
+            if n_surface > 0 {
+                pass.draw(0..n_surface, 0..1);
+            }
+            if n > n_surface {
+                pass.set_bind_group(0, &self.patch_mesh_bind_group, &[]);
+                pass.draw(n_surface..n, 0..1);
+            }
+        }
+        if wireframe
+            && !remesh_only
+            && let Some((buf, n)) = &scene.patch_wire
+        {
+            pass.set_pipeline(&self.line_pipeline);
+            pass.set_bind_group(0, &self.patch_overlay_bind_group, &[]);
+            pass.set_vertex_buffer(0, buf.slice(..));
+            pass.draw(0..6, 0..*n);
         }
         if settings.show_lines
             && let Some((buf, n)) = &scene.lines

@@ -60,7 +60,10 @@ impl EditorApp {
                         uvs.push([p.x, p.y]);
                     }
                 }
-                Ok(JobOutput::Param(ParamDisplay { corner_uvs: uvs }))
+                Ok(JobOutput::Param(ParamDisplay {
+                    corner_uvs: uvs,
+                    ..Default::default()
+                }))
             })
             .for_generation(generation),
         );
