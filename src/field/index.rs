@@ -14,6 +14,12 @@
 //!   b(v) = (π − Σ corner angles + Σ_{interior fan edges} d_k) / 2π
 //! (geodesic curvature of the boundary plus the field's turning across its fan); with
 //! B = Σ_boundary b(v) the discrete Poincaré–Hopf theorem reads Σ_interior ind(v) = χ − B.
+//!
+//! Turn index: from unreduced integer turns r alone the face angles telescope around the fan,
+//! k = N (K_v − Σ_k (κ_{k,k+1} + (2π/N) r_{k,k+1})) / 2π (`turn_index_k_at`, `turn_indices`),
+//! the index the fixed-matching solve realizes for those turns. It equals the index above
+//! whenever no residual reaches π (closest turns), and unlike it changes by ±N when the turns
+//! along a path change by ±N: integral indices (±N/N, holonomy 0) move and cancel by turns.
 
 use std::f64::consts::TAU;
 
@@ -168,6 +174,7 @@ pub(crate) fn all_fan_sums(
 /// Around vertex v (counter-clockwise, over its interior fan edges): the summed residual angles
 /// Σ d_k, the summed matchings Σ r_{k,k+1}, and whether v is on the boundary; `None` for an
 /// isolated vertex. `turns(e)` is the matching of edge e (any representative mod N).
+#[cfg(test)]
 pub(crate) fn fan_turning(
     mesh: &TriMesh,
     tr: &EdgeTransport,
@@ -219,7 +226,9 @@ fn crossing(
     )
 }
 
-/// The full index numerator k (index k/N) of an interior vertex; `None` on the boundary.
+/// The full index numerator k (index k/N) of an interior vertex from the angles (residuals
+/// wrapped); `None` on the boundary.
+#[cfg(test)]
 pub(crate) fn index_k_at(
     mesh: &TriMesh,
     tr: &EdgeTransport,
@@ -232,10 +241,131 @@ pub(crate) fn index_k_at(
     (!boundary).then(|| (n as f64 * (mesh.angle_defect(v) + sum_d) / TAU).round() as i32)
 }
 
+/// The full index numerator k (index k/N) of interior vertex v from the unreduced integer turns
+/// alone (`turns(e)` from the first face of e to the second), with v's angle defect `defect`:
+/// around v's fan the face angles telescope, so
+///   k = N (K_v − Σ_k (κ_{k,k+1} + (2π/N) r_{k,k+1})) / 2π
+/// over the counter-clockwise crossings, without wrapping any residual. This is the index the
+/// fixed-matching solve realizes for these turns (changing one turn by N moves the solution's
+/// angles, and the index, by a full turn). It equals the angle-based index
+/// ([`indices_from_angles`]) whenever every residual angle is below π, e.g. for the closest
+/// turns of any field, but unlike it sees a turn change by N and never mistakes a change by
+/// N/2 for its opposite (see `cancel`). `None` on the boundary.
+pub(crate) fn turn_index_k_at(
+    mesh: &TriMesh,
+    tr: &EdgeTransport,
+    defect: f64,
+    v: usize,
+    n: u32,
+    turns: impl Fn(usize) -> i64,
+) -> Option<i32> {
+    if mesh.is_boundary_vertex(v) {
+        return None;
+    }
+    let step = TAU / n as f64;
+    let mut sum = defect;
+    let mut any = false;
+    for h in mesh.outgoing(v) {
+        any = true;
+        // Crossing from face(h) to the next face counter-clockwise, over the edge of prev(h).
+        let e = mesh.edge(mesh.prev(h));
+        let c = tr.kappa[e] + step * turns(e) as f64;
+        sum += if tr.faces[e][0] as usize == mesh.face_of(h) {
+            -c
+        } else {
+            c
+        };
+    }
+    any.then(|| (n as f64 * sum / TAU).round() as i32)
+}
+
+/// [`turn_index_k_at`] of every vertex at once, edge by edge (`None` on boundary and isolated
+/// vertices): crossing the edge of halfedge g from face(g) to face(twin g) is the crossing
+/// counter-clockwise around the vertex g ends at.
+pub(crate) fn turn_indices(
+    mesh: &TriMesh,
+    tr: &EdgeTransport,
+    turns: &[i64],
+    n: u32,
+) -> Vec<Option<i32>> {
+    let step = TAU / n as f64;
+    let mut sum = mesh.angle_defects();
+    let mut touched = vec![false; mesh.n_vertices()];
+    for f in mesh.faces() {
+        for &v in f {
+            touched[v as usize] = true;
+        }
+    }
+    for (e, &r) in turns.iter().enumerate() {
+        let (h0, h1) = mesh.edge_halfedges(e);
+        let Some(h1) = h1 else { continue };
+        let c = tr.kappa[e] + step * r as f64;
+        sum[mesh.to(h0)] -= c;
+        sum[mesh.to(h1)] += c;
+    }
+    (0..mesh.n_vertices())
+        .map(|v| {
+            (touched[v] && !mesh.is_boundary_vertex(v))
+                .then(|| (n as f64 * sum[v] / TAU).round() as i32)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::field::cancel::{PathSearch, apply};
+    use crate::field::smoothing::nearest_turns;
     use crate::mesh::generate::{cylinder, torus_alternating};
+
+    /// For the closest turns of any field (every residual below π) the turn index equals the
+    /// angle-based one, batch and per vertex; changing the turns along a path by N changes the
+    /// turn index by ±N at its ends only, and leaves the angle-based one as it was.
+    #[test]
+    fn turn_index_equals_the_angle_index_of_closest_turns_and_sees_full_turns() {
+        let mut singular = 0;
+        for mesh in [
+            torus_alternating(3.0, 1.0, 24, 12),
+            cylinder(1.0, 2.0, 20, 7),
+        ] {
+            let tr = EdgeTransport::new(&mesh, &FaceBases::new(&mesh));
+            let theta: Vec<f64> = (0..mesh.n_faces())
+                .map(|f| ((f * 7919) % 1000) as f64 * 0.0137)
+                .collect();
+            let interior: Vec<usize> = (0..mesh.n_vertices())
+                .filter(|&v| !mesh.is_boundary_vertex(v))
+                .collect();
+            let (p, q) = (interior[3], interior[interior.len() / 2]);
+            let path = PathSearch::new(mesh.n_vertices())
+                .shortest_interior_path(&mesh, p, q, f64::INFINITY)
+                .unwrap();
+            for n in [2, 4, 6] {
+                let mut turns = nearest_turns(&tr, &theta, TAU / n as f64);
+                let matchings: Vec<i32> = turns
+                    .iter()
+                    .map(|r| r.rem_euclid(n as i64) as i32)
+                    .collect();
+                let by_angle = indices_from_angles(&mesh, &tr, &theta, &matchings, n).index_k;
+                let by_turns = turn_indices(&mesh, &tr, &turns, n);
+                assert_eq!(by_turns, by_angle, "N = {n}");
+                singular += by_angle.iter().flatten().filter(|&&k| k != 0).count();
+                for v in 0..mesh.n_vertices() {
+                    let at = turn_index_k_at(&mesh, &tr, mesh.angle_defect(v), v, n, |e| turns[e]);
+                    assert_eq!(at, by_turns[v], "vertex {v}, N = {n}");
+                }
+                apply(&mesh, &mut turns, &path, n as i32, 1);
+                let moved = turn_indices(&mesh, &tr, &turns, n);
+                for v in 0..mesh.n_vertices() {
+                    let change = moved[v].zip(by_turns[v]).map(|(a, b)| (a - b).abs());
+                    let expected = if v == p || v == q { n as i32 } else { 0 };
+                    assert_eq!(change.unwrap_or(0), expected, "vertex {v}, N = {n}");
+                    let angle = index_k_at(&mesh, &tr, &theta, v, n, |e| turns[e]);
+                    assert_eq!(angle, by_angle[v], "vertex {v}, N = {n}");
+                }
+            }
+        }
+        assert!(singular > 100, "{singular} singularities");
+    }
 
     /// The edge-wise sums equal the per-vertex fan walk on closed and open meshes, with random
     /// angles and turns (so that many residuals wrap), and the face-wise angle defects equal the
