@@ -261,7 +261,15 @@ pub fn extract_until(
         if cancel() {
             return Err(ExtractError::Cancelled);
         }
-        out.relaxed = Some(relax::relax_until(&mut out, mesh, constrained, r, cancel));
+        let held = poles::polar_region(&out, &opts.poles);
+        out.relaxed = Some(relax::relax_holding(
+            &mut out,
+            mesh,
+            constrained,
+            &held,
+            r,
+            cancel,
+        ));
         if cancel() {
             return Err(ExtractError::Cancelled);
         }

@@ -170,3 +170,52 @@ impl Proxy {
         r
     }
 }
+
+/// The remesh vertices around the poles that relaxation must leave where the map puts them. A
+/// polar grid is anisotropic by nature: with P grid lines into the pole, a cell r rings out is
+/// about 2πr / P wide and one ring deep, so smoothing towards isotropic cells pulls the rings
+/// into zigzags while 2πr < P / 2. Held: every vertex within ⌈P / 4π⌉ + 1 rings of a pole
+/// vertex (P = the pole's valence for triangles, twice it for quads, where purification joins
+/// the fan's triangles pairwise; 2 × valence bounds both).
+pub(crate) fn polar_region(r: &Remesh, poles: &[Pole]) -> Vec<bool> {
+    let n = r.positions.len();
+    let mut held = vec![false; n];
+    if poles.is_empty() {
+        return held;
+    }
+    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for f in &r.faces {
+        for k in 0..f.len() {
+            let (a, b) = (f[k], f[(k + 1) % f.len()]);
+            neighbours[a as usize].push(b);
+            neighbours[b as usize].push(a);
+        }
+    }
+    for l in &mut neighbours {
+        l.sort_unstable();
+        l.dedup();
+    }
+    for pole in poles {
+        let Some(start) = (0..n).find(|&v| r.origins[v] == Origin::Vertex(pole.vertex as u32))
+        else {
+            continue;
+        };
+        let lines = 2 * neighbours[start].len();
+        let rings = (lines as f64 / (4.0 * std::f64::consts::PI)).ceil() as usize + 1;
+        let mut frontier = vec![start as u32];
+        held[start] = true;
+        for _ in 0..rings {
+            let mut next = Vec::new();
+            for &v in &frontier {
+                for &w in &neighbours[v as usize] {
+                    if !held[w as usize] {
+                        held[w as usize] = true;
+                        next.push(w);
+                    }
+                }
+            }
+            frontier = next;
+        }
+    }
+    held
+}

@@ -319,6 +319,19 @@ pub fn relax_until(
     opts: &RelaxOptions,
     cancel: &(dyn Fn() -> bool + Sync),
 ) -> RelaxStats {
+    relax_holding(remesh, input, constrained, &[], opts, cancel)
+}
+
+/// [`relax_until`] with the vertices `held[v]` (may be shorter than the vertex list) kept where
+/// they are, like chain corners.
+pub fn relax_holding(
+    remesh: &mut Remesh,
+    input: &TriMesh,
+    constrained: &[bool],
+    held: &[bool],
+    opts: &RelaxOptions,
+    cancel: &(dyn Fn() -> bool + Sync),
+) -> RelaxStats {
     let n = remesh.positions.len();
     if remesh.faces.is_empty() || n == 0 || input.n_faces() == 0 || opts.iterations == 0 {
         return RelaxStats::default();
@@ -380,6 +393,10 @@ pub fn relax_until(
     let mut kind = vec![Kind::Free; n];
     let mut seg = vec![0u32; n];
     for v in 0..n {
+        if held.get(v).copied().unwrap_or(false) {
+            kind[v] = Kind::Fixed;
+            continue;
+        }
         let bd = on_boundary[v];
         let origin = remesh.origins.get(v).copied().unwrap_or(Origin::Unknown);
         let on_chain = match origin {
