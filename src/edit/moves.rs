@@ -5,8 +5,6 @@
 //! one changed edge entering and one leaving. q may be singular (the indices add: a merge) or on
 //! the boundary (the singularity leaves the surface).
 
-use std::f64::consts::TAU;
-
 use crate::field::cancel::{PathSearch, apply};
 use crate::field::transport::EdgeTransport;
 use crate::mesh::TriMesh;
@@ -24,21 +22,7 @@ pub(crate) fn turn_index(
     n: u32,
     turns: &[i64],
 ) -> Option<i32> {
-    if mesh.is_boundary_vertex(v) {
-        return None;
-    }
-    let step = TAU / n as f64;
-    let mut sum = 0.0;
-    let mut any = false;
-    for h in mesh.outgoing(v) {
-        any = true;
-        // Crossing from face(h) to the next face counter-clockwise, over the edge of prev(h).
-        let e = mesh.edge(mesh.prev(h));
-        let forward = tr.faces[e][0] as usize == mesh.face_of(h);
-        let c = tr.kappa[e] + step * turns[e] as f64;
-        sum += if forward { -c } else { c };
-    }
-    any.then(|| (n as f64 * (defect + sum) / TAU).round() as i32)
+    crate::field::index::turn_index_k_at(mesh, tr, defect, v, n, |e| turns[e])
 }
 
 /// A move planned on a state: the path and what it does.

@@ -484,7 +484,13 @@ fn unfold_quads(outer: &[[[f64; 2]; 2]], maps: &[(M2, [f64; 2])], q: &mut [[f64;
         let k = (j + 1) % d;
         [outer[j][0], outer[j][1], before(q, k), q[j]]
     };
-    let folds = |q: &[[f64; 2]]| (0..d).filter(|&j| !(min_corner(&quad(q, j)) > 0.0)).count();
+    let folds = |q: &[[f64; 2]]| {
+        (0..d)
+            .filter(|&j| {
+                min_corner(&quad(q, j)).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+            })
+            .count()
+    };
     let start = folds(q);
     if start == 0 {
         return;
