@@ -190,6 +190,15 @@ fn assert_rings(r: &quadcover::extract::Remesh, pole: u32, radius: f64, what: &s
     }
 }
 
+/// The default extraction of `p` with its poles.
+fn extract_with_poles(mesh: &TriMesh, p: &Parameterization) -> quadcover::extract::Remesh {
+    let opts = ExtractOptions {
+        poles: p.poles.clone(),
+        ..Default::default()
+    };
+    extract(mesh, &p.uv, p.symmetry as u8, &opts).unwrap()
+}
+
 fn range(p: &Parameterization, c: usize) -> f64 {
     let lo = p.uv.iter().map(|x| x[c]).fold(f64::INFINITY, f64::min);
     let hi = p.uv.iter().map(|x| x[c]).fold(f64::NEG_INFINITY, f64::max);
@@ -250,16 +259,7 @@ fn stripes_on_the_uv_sphere_are_latitude_circles_around_both_poles() {
         assert!(w[0].abs() < 1e-6, "u does not wind: {w:?}");
     }
     // The stripes: closed latitude circles (constant z), as many as the integer levels of u.
-    let r = extract(
-        &mesh,
-        &p.uv,
-        2,
-        &ExtractOptions {
-            poles: p.poles.clone(),
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let r = extract_with_poles(&mesh, &p);
     assert!(r.polylines.len() >= 10, "{} stripes", r.polylines.len());
     for l in &r.polylines {
         let z: Vec<f64> = l.iter().map(|&v| r.positions[v as usize].z).collect();
@@ -299,16 +299,7 @@ fn winding_stripes_meet_at_the_poles_instead_of_collapsing() {
     );
 
     // The stripes of u: meridians, each running into both poles (welded pole vertices).
-    let r = extract(
-        &mesh,
-        &p.uv,
-        2,
-        &ExtractOptions {
-            poles: p.poles.clone(),
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let r = extract_with_poles(&mesh, &p);
     let at_pole = |v: u32| matches!(r.origins[v as usize], Origin::Vertex(x) if x == 0 || x as usize == mesh.n_vertices() - 1);
     assert_eq!(r.polylines.len() as f64, w[0].abs().round());
     for l in &r.polylines {

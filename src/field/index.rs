@@ -318,20 +318,30 @@ mod tests {
     use crate::field::smoothing::nearest_turns;
     use crate::mesh::generate::{cylinder, torus_alternating};
 
+    /// A closed and an open mesh with a deterministic pseudo-random field on each.
+    fn fixtures() -> Vec<(TriMesh, EdgeTransport, Vec<f64>)> {
+        [
+            torus_alternating(3.0, 1.0, 24, 12),
+            cylinder(1.0, 2.0, 20, 7),
+        ]
+        .into_iter()
+        .map(|mesh| {
+            let tr = EdgeTransport::new(&mesh, &FaceBases::new(&mesh));
+            let theta = (0..mesh.n_faces())
+                .map(|f| ((f * 7919) % 1000) as f64 * 0.0137)
+                .collect();
+            (mesh, tr, theta)
+        })
+        .collect()
+    }
+
     /// For the closest turns of any field (every residual below π) the turn index equals the
     /// angle-based one, batch and per vertex; changing the turns along a path by N changes the
     /// turn index by ±N at its ends only, and leaves the angle-based one as it was.
     #[test]
     fn turn_index_equals_the_angle_index_of_closest_turns_and_sees_full_turns() {
         let mut singular = 0;
-        for mesh in [
-            torus_alternating(3.0, 1.0, 24, 12),
-            cylinder(1.0, 2.0, 20, 7),
-        ] {
-            let tr = EdgeTransport::new(&mesh, &FaceBases::new(&mesh));
-            let theta: Vec<f64> = (0..mesh.n_faces())
-                .map(|f| ((f * 7919) % 1000) as f64 * 0.0137)
-                .collect();
+        for (mesh, tr, theta) in fixtures() {
             let interior: Vec<usize> = (0..mesh.n_vertices())
                 .filter(|&v| !mesh.is_boundary_vertex(v))
                 .collect();
@@ -372,15 +382,8 @@ mod tests {
     /// per-vertex ones.
     #[test]
     fn edge_wise_fan_sums_and_defects_equal_the_fan_walk() {
-        for mesh in [
-            torus_alternating(3.0, 1.0, 24, 12),
-            cylinder(1.0, 2.0, 20, 7),
-        ] {
-            let tr = EdgeTransport::new(&mesh, &FaceBases::new(&mesh));
+        for (mesh, tr, theta) in fixtures() {
             // A deterministic pseudo-random field and matchings.
-            let theta: Vec<f64> = (0..mesh.n_faces())
-                .map(|f| ((f * 7919) % 1000) as f64 * 0.0137)
-                .collect();
             let turns = |e: usize| ((e * 104_729) % 9) as i64 - 4;
             for n in [2, 4, 6] {
                 let (sum_d, sum_r, touched) = all_fan_sums(&mesh, &tr, &theta, n, turns);
