@@ -260,13 +260,17 @@ fn sphere_singularities_seams_and_paths() {
                 (sum - 2.0).abs() < 1e-9,
                 "N={n}: Poincaré–Hopf: Σ index = {sum}"
             );
+            // Treated poles (N = 2 here: two +2/2) are holes of the opened mesh: boundary loops.
+            if n == 2 {
+                assert_eq!(p.poles.len(), 2, "N=2: the two vortices are treated poles");
+                assert_eq!(p.flipped_faces, 0, "N=2: no fold at the poles");
+            }
             assert_eq!(
                 p.cut_paths.len(),
-                param::expected_cut_paths(0, 0, s),
-                "N={n}: s − 1 paths"
+                param::expected_cut_paths(0, p.poles.len(), s),
+                "N={n}: s + poles − 1 paths"
             );
-            let lattice = p.lattice;
-            let err = contract_error(&mesh, &p.uv, n, lattice);
+            let err = seams::contract_error_with_poles(&mesh, &p);
             assert!(err < 1e-6, "N={n} pure={pure}: seam error {err}");
             assert!(p.seam_max_error < 1e-6);
             if n == 4 {
