@@ -37,6 +37,7 @@ pub fn contract_error(mesh: &TriMesh, uv: &[[f64; 2]], n: usize, lattice: Lattic
 /// [`contract_error`] for a map with treated poles: at a pole the star faces are bilinear quads
 /// whose inner corner on star edge (p, a_k) stands in for the faces' own pole corners (which are
 /// not seamless), so across that edge the quads' corners must be related instead.
+#[allow(dead_code)] // only the crates whose maps have poles use it
 pub fn contract_error_with_poles(mesh: &TriMesh, p: &quadcover::param::Parameterization) -> f64 {
     let n = p.symmetry;
     // (face, pole vertex, other end of the star edge) -> the quad corner standing in for p.
