@@ -366,26 +366,21 @@ impl QuadCover {
 
     /// The singularities of positive integral index the frames have, and the solver on the
     /// mesh with the treatable ones' stars cut open (alg. 6, lines 1–5); `None` without poles
-    /// (or with `no_poles`). `blocked`: vertices on constraint curves.
+    /// (or with `no_poles`). `singularities`: [`Self::singularities`] of the frames; `blocked`:
+    /// vertices on constraint curves.
     fn opened(
         &self,
         mesh: &TriMesh,
-        frames: &[[DVec3; 2]],
+        singularities: &[Singularity],
         blocked: &[bool],
     ) -> Result<Option<OpenedFor>, ParamError> {
-        if self.opts.no_poles || frames.len() != mesh.n_faces() {
+        if self.opts.no_poles {
             return Ok(None);
         }
-        let found: Vec<(usize, f64)> = (0..mesh.n_vertices())
-            .into_par_iter()
-            .filter(|&v| self.cut.holonomy[v] == 0 && !mesh.is_boundary_vertex(v))
-            .map(|v| {
-                (
-                    v,
-                    metrics::vertex_index(mesh, &self.cut, self.symmetry, frames, v),
-                )
-            })
-            .filter(|&(_, i)| poles::is_pole(0, i))
+        let found: Vec<(usize, f64)> = singularities
+            .iter()
+            .filter(|s| poles::is_pole(s.holonomy, s.index))
+            .map(|s| (s.vertex, s.index))
             .collect();
         if found.is_empty() {
             return Ok(None);
@@ -433,13 +428,13 @@ impl QuadCover {
     fn close(
         &self,
         mesh: &TriMesh,
-        frames: &[[DVec3; 2]],
+        singularities: Vec<Singularity>,
         o: &Opened,
         indices: &[(usize, f64)],
         p: Parameterization,
     ) -> Parameterization {
         let mut p = poles::close(mesh, &o.mesh, &self.rots, indices, p);
-        p.singularities = self.singularities(mesh, frames);
+        p.singularities = singularities;
         p.untreated_poles = o.untreated.clone();
         p.timings.cut_ms += self.timings.cut_ms;
         p
@@ -552,9 +547,12 @@ impl QuadCover {
         frames: &[[DVec3; 2]],
         cancel: CancelCheck<'_>,
     ) -> Result<Parameterization, ParamError> {
-        if let Some((o, indices)) = self.opened(mesh, frames, &[])? {
+        self.check_frames(mesh, frames)?;
+        // One index per vertex, for the poles and the report alike.
+        let singularities = self.singularities(mesh, frames);
+        if let Some((o, indices)) = self.opened(mesh, &singularities, &[])? {
             let p = o.qc.solve_until(&o.mesh, frames, cancel)?;
-            return Ok(self.close(mesh, frames, &o, &indices, p));
+            return Ok(self.close(mesh, singularities, &o, &indices, p));
         }
         let local = self.local_step(mesh, frames)?;
         let t = Instant::now();
@@ -573,7 +571,16 @@ impl QuadCover {
         if cancel() {
             return Err(ParamError::Cancelled);
         }
-        let mut p = self.complete(mesh, frames, &local, uv, gaps, global_ms, &repair);
+        let mut p = self.complete(
+            mesh,
+            frames,
+            singularities,
+            &local,
+            uv,
+            gaps,
+            global_ms,
+            &repair,
+        );
         p.rerounded_gaps = rerounded;
         Ok(p)
     }
@@ -616,10 +623,12 @@ impl QuadCover {
                 blocked[v] = true;
             }
         }
-        if let Some((o, indices)) = self.opened(mesh, frames, &blocked)? {
+        self.check_frames(mesh, frames)?;
+        let singularities = self.singularities(mesh, frames);
+        if let Some((o, indices)) = self.opened(mesh, &singularities, &blocked)? {
             let p =
                 o.qc.solve_with_curves_until(&o.mesh, frames, curves, cancel)?;
-            return Ok(self.close(mesh, frames, &o, &indices, p));
+            return Ok(self.close(mesh, singularities, &o, &indices, p));
         }
         let local = self.local_step(mesh, frames)?;
         let t = Instant::now();
@@ -661,7 +670,16 @@ impl QuadCover {
             return Err(ParamError::Cancelled);
         }
         let fits = traced.fits(&self.rots, &uv, &w);
-        let mut p = self.complete(mesh, frames, &local, uv, gaps, global_ms, &repair);
+        let mut p = self.complete(
+            mesh,
+            frames,
+            singularities,
+            &local,
+            uv,
+            gaps,
+            global_ms,
+            &repair,
+        );
         p.curves = fits;
         Ok(p)
     }
@@ -785,13 +803,14 @@ impl QuadCover {
         &self,
         mesh: &TriMesh,
         frames: &[[DVec3; 2]],
+        singularities: Vec<Singularity>,
         local: &LocalSolution,
         uv: Vec<[f64; 2]>,
         gaps: Vec<[f64; 2]>,
         global_ms: f64,
         repair: &untangle::Repair,
     ) -> Parameterization {
-        let mut p = self.finish(mesh, frames, uv, local.gaps.clone(), gaps);
+        let mut p = self.finish(mesh, singularities, uv, local.gaps.clone(), gaps);
         p.curl = local.curl(mesh, frames);
         p.flipped_faces_before_repair = repair.before;
         p.timings = StageTimings {
@@ -821,7 +840,7 @@ impl QuadCover {
     fn finish(
         &self,
         mesh: &TriMesh,
-        frames: &[[DVec3; 2]],
+        singularities: Vec<Singularity>,
         uv: Vec<[f64; 2]>,
         measured: Vec<[f64; 2]>,
         gaps: Vec<[f64; 2]>,
@@ -834,7 +853,6 @@ impl QuadCover {
             .collect();
         let seam_max_error = metrics::seam_error(mesh, &self.rots, &uv, &trans, self.lattice);
         let q = metrics::quality(mesh, &uv);
-        let singularities = self.singularities(mesh, frames);
         Parameterization {
             symmetry: self.symmetry,
             lattice: self.lattice,
