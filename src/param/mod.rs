@@ -275,8 +275,11 @@ struct Opened {
     qc: QuadCover,
 }
 
-/// Gaps tried per round when the rounding made folds unavoidable ([`QuadCover::reround`]).
+/// Gaps tried per round when the repair left folds ([`QuadCover::reround`]), the best
+/// candidates of them repaired per round, and the rounds.
 const REROUND_GAPS: usize = 8;
+const REROUND_TRIES: usize = 3;
+const REROUND_ROUNDS: usize = 6;
 
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
@@ -563,7 +566,7 @@ impl QuadCover {
         let mut repair = self.untangle(mesh, &local, &space, &mut uv, cancel);
         let mut gaps = gaps;
         let mut rerounded = Vec::new();
-        if !repair.stuck.is_empty() && !cancel() {
+        if !untangle::folded(&uv).is_empty() && !self.opts.no_untangle && !cancel() {
             let t = Instant::now();
             rerounded = self.reround(mesh, &local, &mut gaps, &mut uv, &mut repair, cancel)?;
             repair.ms += ms(t);
@@ -684,11 +687,16 @@ impl QuadCover {
         Ok(p)
     }
 
-    /// Folds no motion of the vertices can undo (two branch points rounded onto one lattice
-    /// point): the gaps their held corners depend on are moved by one lattice step, one at a
-    /// time, keeping a change when the repaired map has fewer folds (ties: the smaller
-    /// rounding error). At most [`REROUND_GAPS`] gaps are tried, in rounds until nothing is
-    /// stuck or nothing helps. Returns the changed gaps.
+    /// Folds the repair left, stuck ones (two branch points rounded onto one lattice point: no
+    /// motion of the vertices can undo them) or not (a branch point rounded so far from where
+    /// its ring wants it that the folds it causes outgrow the repair's regions): the gaps the
+    /// held corners around them depend on are moved by one lattice step, one at a time. The
+    /// candidates are ranked by the global map they give (stuck faces, folds, rounding error),
+    /// and the best [`REROUND_TRIES`] are repaired in turn: the repaired map plus the change of
+    /// the global map (still seamless: both are maps of the global step's form), so that only
+    /// the folds near the moved branch points are repaired again. The first with fewer folds
+    /// than the current map is kept; rounds go on until no fold is left or nothing helps.
+    /// Returns the changed gaps.
     fn reround(
         &self,
         mesh: &TriMesh,
@@ -699,73 +707,128 @@ impl QuadCover {
         cancel: CancelCheck<'_>,
     ) -> Result<Vec<Rerounded>, ParamError> {
         let first = gaps.clone();
-        for _ in 0..3 {
-            if repair.stuck.is_empty() {
+        let error = |g: &[[f64; 2]]| -> f64 {
+            g.iter()
+                .zip(&local.gaps)
+                .map(|(a, b)| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2))
+                .sum()
+        };
+        // The state with the fewest folds so far: a round may trade folds for fewer stuck
+        // faces, which only later rounds can turn into fewer folds.
+        let mut best = (
+            untangle::folded(uv).len(),
+            gaps.clone(),
+            uv.clone(),
+            repair.clone(),
+        );
+        for _ in 0..REROUND_ROUNDS {
+            let folds_now = untangle::folded(uv);
+            if folds_now.len() < best.0 {
+                best = (folds_now.len(), gaps.clone(), uv.clone(), repair.clone());
+            }
+            if folds_now.is_empty() || cancel() {
                 break;
             }
-            let mut candidates: Vec<usize> = repair
-                .stuck
+            // The corners of the faces around the folded faces' vertices (the other held
+            // corner of a stuck face may sit across an edge, or beyond a vertex between
+            // them), stuck faces first; the gaps of the held ones, in that order.
+            let stuck: std::collections::HashSet<usize> = repair.stuck.iter().copied().collect();
+            let (mut order, rest): (Vec<usize>, Vec<usize>) =
+                folds_now.iter().partition(|f| stuck.contains(f));
+            order.extend(rest);
+            let mut candidates: Vec<usize> = order
                 .iter()
                 .flat_map(|&f| {
-                    // The stuck face's corners and those of its neighbours (the other held
-                    // corner may sit across an edge).
-                    let mut c: Vec<usize> = (3 * f..3 * f + 3).collect();
-                    for h in 3 * f..3 * f + 3 {
-                        if let Some(t) = mesh.twin(h) {
-                            c.push(mesh.prev(t));
-                        }
-                    }
-                    c
+                    (3 * f..3 * f + 3)
+                        .flat_map(|h| mesh.outgoing(mesh.from(h)))
+                        .flat_map(|h| [h, mesh.next(h), mesh.prev(h)])
+                        .collect::<Vec<_>>()
                 })
                 .filter(|&c| self.global.corner_var[c] == cut::NONE)
                 .flat_map(|c| self.global.corner_lin[c].0.iter().map(|x| x.0 as usize))
                 .collect();
-            candidates.sort_unstable();
-            candidates.dedup();
+            let mut seen = std::collections::HashSet::new();
+            candidates.retain(|k| seen.insert(*k));
             candidates.truncate(REROUND_GAPS);
-            let error = |g: &[[f64; 2]]| -> f64 {
-                g.iter()
-                    .zip(&local.gaps)
-                    .map(|(a, b)| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2))
-                    .sum()
-            };
-            // Candidates are compared before their repair (stuck faces, then folds, then the
-            // rounding error); only the best one is repaired.
+            // Stuck faces must become fewer; without stuck faces any candidate may help.
             let stuck_now = repair.stuck.len();
-            // (stuck, folds, rounding error), gaps, map.
-            type Candidate = ((usize, usize, f64), Vec<[f64; 2]>, Vec<[f64; 2]>);
-            let mut best: Option<Candidate> = None;
+            // The global map is affine in the gaps: two solves per candidate give the map of
+            // every step of it (to rounding, which is good enough for ranking; the kept map is
+            // solved for exactly).
+            let base = self.global_uv(mesh, local, gaps)?;
+            // ((stuck, folds, rounding error), gaps).
+            type Ranked = ((usize, usize, f64), Vec<[f64; 2]>);
+            let mut ranked: Vec<Ranked> = Vec::new();
             for &k in &candidates {
+                let unit = |i: usize| -> Result<Vec<[f64; 2]>, ParamError> {
+                    let mut g = gaps.clone();
+                    g[k][i] += 1.0;
+                    let u = self.global_uv(mesh, local, &g)?;
+                    Ok(u.iter()
+                        .zip(&base)
+                        .map(|(a, b)| [a[0] - b[0], a[1] - b[1]])
+                        .collect())
+                };
+                let (d0, d1) = (unit(0)?, unit(1)?);
                 for d in self.lattice.steps() {
                     let mut g = gaps.clone();
                     g[k] = [g[k][0] + d[0], g[k][1] + d[1]];
-                    let u = self.global_uv(mesh, local, &g)?;
+                    let u: Vec<[f64; 2]> = (0..base.len())
+                        .map(|c| {
+                            std::array::from_fn(|i| base[c][i] + d[0] * d0[c][i] + d[1] * d1[c][i])
+                        })
+                        .collect();
                     let space = self.global.map_space(mesh.n_vertices(), &g);
-                    let (stuck, folds) = untangle::count_stuck(mesh, &space, &u);
-                    let key = (stuck, folds, error(&g));
-                    let better = match &best {
-                        None => stuck < stuck_now,
-                        Some((b, _, _)) => key.partial_cmp(b) == Some(std::cmp::Ordering::Less),
-                    };
-                    if better {
-                        best = Some((key, g, u));
+                    let (stuck, folds) = untangle::count_stuck(mesh, &self.rots, &space, &u);
+                    if stuck < stuck_now || stuck_now == 0 {
+                        ranked.push(((stuck, folds, error(&g)), g));
                     }
                 }
             }
-            let Some((_, g, mut u)) = best else { break };
-            let space = self.global.map_space(mesh.n_vertices(), &g);
-            let r = self.untangle(mesh, local, &space, &mut u, cancel);
-            // Kept only if the repaired map has fewer folds than the current one.
-            if untangle::folded(&u).len() >= untangle::folded(uv).len() {
+            ranked.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap_or(std::cmp::Ordering::Equal));
+            let mut kept = false;
+            'tries: for (i, (_, g)) in ranked.into_iter().take(REROUND_TRIES).enumerate() {
+                let fresh = self.global_uv(mesh, local, &g)?;
+                let space = self.global.map_space(mesh.n_vertices(), &g);
+                // The repaired map moved by the change of the global map; for the best
+                // candidate also the new global map itself, repaired from scratch (either
+                // start wins on some meshes: spot at 1500 vertices, N = 4 and N = 6).
+                let moved: Vec<[f64; 2]> = (0..uv.len())
+                    .map(|c| std::array::from_fn(|k| uv[c][k] + fresh[c][k] - base[c][k]))
+                    .collect();
+                let starts = if i == 0 {
+                    vec![moved, fresh]
+                } else {
+                    vec![moved]
+                };
+                for mut u in starts {
+                    if cancel() {
+                        break 'tries;
+                    }
+                    self.untangle(mesh, local, &space, &mut u, cancel);
+                    let after = untangle::count_stuck(mesh, &self.rots, &space, &u);
+                    if after < (stuck_now, folds_now.len()) {
+                        *gaps = g;
+                        *uv = u;
+                        *repair = untangle::Repair {
+                            before: repair.before,
+                            ms: repair.ms,
+                            stuck: untangle::folded(uv)
+                                .into_iter()
+                                .filter(|&f| untangle::stuck(mesh, &self.rots, &space, uv, f))
+                                .collect(),
+                        };
+                        kept = true;
+                        break 'tries;
+                    }
+                }
+            }
+            if !kept {
                 break;
             }
-            *gaps = g;
-            *uv = u;
-            *repair = untangle::Repair {
-                before: repair.before,
-                ms: repair.ms,
-                ..r
-            };
+        }
+        if untangle::folded(uv).len() >= best.0 {
+            (_, *gaps, *uv, *repair) = best;
         }
         Ok((0..gaps.len())
             .filter(|&k| gaps[k] != first[k])

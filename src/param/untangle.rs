@@ -18,16 +18,19 @@
 //! Folds are local, so the repair is too: the unknowns are the vertices within a few rings of
 //! the folded faces, everything else is held. A region whose folds remain is grown (rings 2,
 //! 4, 8, 16, 32) and solved again, until two growths leave as many folds; regions of more than
-//! [`MAX_REGION`] vertices are not tried (their Newton steps cost a factorization each). The regions are independent and solved in parallel. A
-//! region's result is kept only if it has fewer folded faces than before: the repair never
-//! adds a fold. Afterwards the repaired
-//! places are relaxed over [`RELAX_RINGS`] rings with the barrier energy (fold-free regions
-//! only, kept when the energy decreased), which spreads the distortion the repair concentrated
-//! next to the folds.
+//! [`MAX_REGION`] vertices are not tried (their Newton steps cost a factorization each). The
+//! regions are independent and solved in parallel. A region's result is kept only if it has
+//! fewer folded faces than before: the repair never adds a fold. Small regions whose folds
+//! remain are solved again from three other starts, each against one kind of local minimum
+//! (see [`fan_start`], [`ring_start`], [`cone_start`]). Afterwards the repaired places are
+//! relaxed over [`RELAX_RINGS`] rings with the barrier energy (fold-free regions only, kept
+//! when the energy decreased), which spreads the distortion the repair concentrated next to
+//! the folds.
 //!
 //! Folds no motion of the unknowns can undo ("stuck": two branch points rounded onto one
-//! lattice point, across a face or an edge) are reported apart; the caller rounds the gaps
-//! they depend on again (`QuadCover::reround`).
+//! lattice point, across a face, an edge or a vertex between them) are reported apart; the
+//! caller rounds the gaps they depend on again (`QuadCover::reround`), as it does for folds
+//! the repair leaves for other reasons.
 //!
 //! Degenerate input triangles: a face whose target triangle has an angle below 1° (a needle,
 //! or zero area) gets a reference blended towards an equilateral triangle of the same area
@@ -71,6 +74,8 @@ const OUTER: usize = 200;
 const NEWTON_PER_EPS: usize = 3;
 /// Outer iterations without a larger smallest determinant after which a region gives up.
 const STAGNATION: usize = 30;
+/// Outer iterations without fewer folded faces after which a region gives up.
+const FOLD_STAGNATION: usize = 40;
 /// ε once every face is positive: f_ε is then the barrier energy up to rounding.
 const EPS_BARRIER: f64 = 1e-10;
 /// Rings around the repaired folds over which the result is relaxed afterwards.
@@ -98,18 +103,35 @@ pub(crate) struct Repair {
 }
 
 /// (stuck, folded) faces of `uv`: see [`stuck`].
-pub(crate) fn count_stuck(mesh: &TriMesh, space: &MapSpace, uv: &[[f64; 2]]) -> (usize, usize) {
+pub(crate) fn count_stuck(
+    mesh: &TriMesh,
+    rots: &Rots,
+    space: &MapSpace,
+    uv: &[[f64; 2]],
+) -> (usize, usize) {
     let f = folded(uv);
     (
-        f.iter().filter(|&&x| stuck(mesh, space, uv, x)).count(),
+        f.iter()
+            .filter(|&&x| stuck(mesh, rots, space, uv, x))
+            .count(),
         f.len(),
     )
 }
 
 /// Whether folded face f stays folded whatever the unknowns: all its corners held; or all but
 /// one, free in both directions, while the two held corners coincide; or one held corner and,
-/// across the opposite edge, another held corner on the same point.
-fn stuck(mesh: &TriMesh, space: &MapSpace, uv: &[[f64; 2]], f: usize) -> bool {
+/// across the opposite edge, another held corner on the same point; or a free interior corner
+/// with two held neighbours on one point ([`pinched`]).
+pub(crate) fn stuck(
+    mesh: &TriMesh,
+    rots: &Rots,
+    space: &MapSpace,
+    uv: &[[f64; 2]],
+    f: usize,
+) -> bool {
+    if (0..3).any(|a| pinched(mesh, rots, space, uv, 3 * f + a)) {
+        return true;
+    }
     let movable: Vec<bool> = (0..3)
         .map(|a| {
             let c = 3 * f + a;
@@ -159,6 +181,37 @@ fn stuck(mesh: &TriMesh, space: &MapSpace, uv: &[[f64; 2]], f: usize) -> bool {
         }
         _ => false,
     }
+}
+
+/// Whether corner c's vertex x is free, interior, and has two held neighbours that sit on one
+/// point of x's own chart (read as x's unknowns: the value of y_x that would put x onto
+/// each). Its fan then cannot be positive: the directions to the two coincide, so the two
+/// arcs of the fan between them turn by multiples of 2π that add up to 2π, and one of them
+/// turns by 0. Two branch points rounded onto one lattice point with a vertex between them
+/// (camelhead and fandisk at N = 4 on 2Z²) are this case.
+fn pinched(mesh: &TriMesh, rots: &Rots, space: &MapSpace, uv: &[[f64; 2]], c: usize) -> bool {
+    let x = mesh.from(c);
+    if space.var[c] == NONE || space.free[x] != [true, true] || mesh.is_boundary_vertex(x) {
+        return false;
+    }
+    let mut held: Vec<(usize, [f64; 2])> = Vec::new();
+    for h in mesh.outgoing(x) {
+        let w = mesh.next(h);
+        let v = mesh.from(w);
+        if space.var[w] != NONE && space.free[v] != [false, false] {
+            continue;
+        }
+        let z = corner_unknowns(rots, space, h, uv[w]);
+        let scale = 1.0 + z[0].abs().max(z[1].abs());
+        if held
+            .iter()
+            .any(|(u, q)| *u != v && (q[0] - z[0]).hypot(q[1] - z[1]) <= 1e-9 * scale)
+        {
+            return true;
+        }
+        held.push((v, z));
+    }
+    false
 }
 
 /// Signed area of the texture triangle of face f (corners 3f, 3f + 1, 3f + 2).
@@ -410,8 +463,9 @@ pub(crate) fn repair(
     if before == 0 {
         return Repair::default();
     }
-    let (stuck_faces, mut bad): (Vec<usize>, Vec<usize>) =
-        all.into_iter().partition(|&f| stuck(mesh, space, uv, f));
+    let (stuck_faces, mut bad): (Vec<usize>, Vec<usize>) = all
+        .into_iter()
+        .partition(|&f| stuck(mesh, rots, space, uv, f));
     let seeds = bad.clone();
     // Sequential: a parallel float sum's order depends on the scheduling, and replay must be
     // bit-identical.
@@ -551,6 +605,9 @@ fn regions(mesh: &TriMesh, space: &MapSpace, bad: &[usize], rings: usize) -> Vec
     out
 }
 
+/// A region's texture corners of a face for given unknowns.
+type Corners<'a> = dyn Fn(&[[f64; 2]], &RegionFace) -> [[f64; 2]; 3] + 'a;
+
 /// One energy face of a region: its corners and the local slot of each corner's vertex.
 struct RegionFace {
     corners: [usize; 3],
@@ -629,6 +686,128 @@ fn fan_start(
             })
             .collect(),
     )
+}
+
+/// Gradient, per-face Hessian blocks (in the order of [`solve_region`]'s `positions`) and a
+/// regularisation for the global step's energy Σ w ‖J − I‖² over the region's faces whose held
+/// corners are all pinned (branch points; faces reaching held vertices outside the region are
+/// left out: a free boundary), at `y`. None when no folded face has a pinned corner.
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+fn cone_start(
+    space: &MapSpace,
+    faces: &[RegionFace],
+    terms: &[Vec<(usize, [f64; 4])>],
+    unknown: &[[u32; 2]],
+    y: &[[f64; 2]],
+    corners: &Corners<'_>,
+) -> Option<(Vec<f64>, Vec<Vec<f64>>, f64)> {
+    let pinned_fold = faces.iter().any(|face| {
+        tri_area(&corners(y, face)) <= 0.0
+            && (0..3).any(|a| face.slot[a] == NONE && space.var[face.corners[a]] == NONE)
+    });
+    if !pinned_fold {
+        return None;
+    }
+    let n = unknown.iter().flatten().filter(|&&u| u != NONE).count();
+    let mut g = vec![0.0; n];
+    let mut diag = 0.0;
+    let h: Vec<Vec<f64>> = faces
+        .iter()
+        .zip(terms)
+        .map(|(face, dj)| {
+            let kept = (0..3).all(|a| face.slot[a] != NONE || space.var[face.corners[a]] == NONE);
+            if !kept {
+                return vec![0.0; dj.len() * dj.len()];
+            }
+            let j = jacobian(&corners(y, face), &face.reference);
+            let r = [j[0] - 1.0, j[1], j[2], j[3] - 1.0];
+            let w = 2.0 * face.reference.weight;
+            let mut out = Vec::with_capacity(dj.len() * dj.len());
+            for (p, dp) in dj {
+                g[*p] += w * (0..4).map(|i| r[i] * dp[i]).sum::<f64>();
+                for (q, dq) in dj {
+                    let s = w * (0..4).map(|i| dp[i] * dq[i]).sum::<f64>();
+                    if p == q {
+                        diag += s;
+                    }
+                    out.push(s);
+                }
+            }
+            out
+        })
+        .collect();
+    // Anchors vertices the kept faces do not reach (and keeps the system definite).
+    Some((g, h, 1e-6 * diag / n.max(1) as f64 + 1e-300))
+}
+
+/// `pinned` (the free-boundary layout of [`cone_start`]) near the held vertices of the folded
+/// faces, blended linearly (in rings) into `y` over the outer half of the region.
+#[allow(clippy::too_many_arguments)]
+fn blend(
+    mesh: &TriMesh,
+    space: &MapSpace,
+    faces: &[RegionFace],
+    unknown: &[[u32; 2]],
+    free: &[usize],
+    y: &[[f64; 2]],
+    pinned: &[[f64; 2]],
+    corners: &Corners<'_>,
+) -> Vec<[f64; 2]> {
+    let slot: HashMap<usize, usize> = free.iter().enumerate().map(|(i, &v)| (v, i)).collect();
+    let mut dist = vec![usize::MAX; free.len()];
+    let mut front: Vec<usize> = Vec::new();
+    for face in faces {
+        if tri_area(&corners(y, face)) > 0.0 {
+            continue;
+        }
+        for a in 0..3 {
+            if face.slot[a] == NONE && space.var[face.corners[a]] == NONE {
+                front.push(mesh.from(face.corners[a]));
+            }
+        }
+    }
+    // Rings from the held vertices, through the region's vertices.
+    let mut d = 0;
+    let mut seen: std::collections::HashSet<usize> = front.iter().copied().collect();
+    while !front.is_empty() {
+        let mut next = Vec::new();
+        for &v in &front {
+            if let Some(&i) = slot.get(&v) {
+                dist[i] = d;
+            }
+            for h in mesh.outgoing(v) {
+                let w = mesh.from(mesh.next(h));
+                if slot.contains_key(&w) && seen.insert(w) {
+                    next.push(w);
+                }
+            }
+        }
+        front = next;
+        d += 1;
+    }
+    let reach = dist
+        .iter()
+        .filter(|&&x| x != usize::MAX)
+        .max()
+        .copied()
+        .unwrap_or(0)
+        .max(1) as f64;
+    (0..free.len())
+        .map(|i| {
+            let phi = if dist[i] == usize::MAX {
+                0.0
+            } else {
+                (2.0 - 2.0 * dist[i] as f64 / reach).clamp(0.0, 1.0)
+            };
+            std::array::from_fn(|k| {
+                if unknown[i][k] == NONE {
+                    y[i][k]
+                } else {
+                    phi * pinned[i][k] + (1.0 - phi) * y[i][k]
+                }
+            })
+        })
+        .collect()
 }
 
 /// The unknowns `y` with every free interior vertex whose fan angle sum in `uv` is off 2π by
@@ -728,7 +907,7 @@ fn solve_region(
     faces.dedup();
     // A stuck face's determinant does not depend on the unknowns; its barrier would only
     // swamp the others.
-    faces.retain(|&f| uv_area(uv, f) > 0.0 || !stuck(mesh, space, uv, f));
+    faces.retain(|&f| uv_area(uv, f) > 0.0 || !stuck(mesh, rots, space, uv, f));
     let rf: Vec<RegionFace> = faces
         .iter()
         .map(|&f| RegionFace {
@@ -922,6 +1101,7 @@ fn solve_region(
         let mut y = start;
         let detmin_start = measure(&y).1;
         let (mut best_detmin, mut since_best) = (detmin_start, 0usize);
+        let (mut best_folds, mut since_fewer) = (usize::MAX, 0usize);
         let mut eps = if relax {
             EPS_BARRIER
         } else {
@@ -940,7 +1120,7 @@ fn solve_region(
                 }
             }
             let e = total(&y, eps);
-            let (_, detmin) = measure(&y);
+            let (folds_now, detmin) = measure(&y);
             let sigma = (1.0 - e / e_prev).max(0.1);
             let mu = (1.0 - sigma) * chi(detmin, eps);
             let converged = detmin > 0.0 && ((e_prev - e) / e).abs() < 1e-5;
@@ -962,6 +1142,17 @@ fn solve_region(
             } else {
                 since_best += 1;
                 if detmin <= 0.0 && since_best >= STAGNATION {
+                    break;
+                }
+            }
+            // The same for the number of folded faces: the smallest determinant may creep up
+            // for the whole budget while the last fold stays (regions of a few hundred
+            // vertices at a branch point rounded too far: 200 iterations, a second each).
+            if folds_now < best_folds {
+                (best_folds, since_fewer) = (folds_now, 0);
+            } else {
+                since_fewer += 1;
+                if folds_now > 0 && since_fewer >= FOLD_STAGNATION {
                     break;
                 }
             }
@@ -1028,6 +1219,39 @@ fn solve_region(
         && restarts
         && let Some(start) =
             ring_start(mesh, rots, space, disk, &unknown, free, &y, &corners_of(&y))
+    {
+        let y1 = run(start);
+        let m = measure(&y1);
+        if m.0 < folds {
+            (y, folds) = (y1, m.0);
+        }
+    }
+    // A held vertex (a branch point) on a folded face whose lattice point lies outside the
+    // image of its ring winds one turn short (−90° instead of 270° at a +1/4 singularity):
+    // the rounding moved it farther than its ring is wide, and the folds cover a disk about
+    // that wide, too wide for the layouts above. Start from the map the global step's energy
+    // gives with only the held vertices pinned (a free boundary: the target triangles laid
+    // out around the lattice point), blended into the current map towards the region's edge.
+    if folds > 0
+        && restarts
+        && let Some(start) = cone_start(space, &rf, &terms, &unknown, &y, &corners)
+            .and_then(|(g, h, regs)| {
+                let mut values = vec![0.0; pattern.nnz()];
+                for (fi, hf) in h.iter().enumerate() {
+                    for (k, x) in hf.iter().enumerate() {
+                        values[positions[fi][k]] += x;
+                    }
+                }
+                for &d in &diagonal {
+                    values[d] += regs;
+                }
+                let m = pattern.with_values(values).ok()?;
+                let solver = SpdSolver::with_analysis_sequential(analysis.clone(), &m).ok()?;
+                let rhs: Vec<f64> = g.iter().map(|x| -x).collect();
+                let step = solver.solve(&rhs).ok()?;
+                Some(step_of(&y, &step, 1.0))
+            })
+            .map(|pinned| blend(mesh, space, &rf, &unknown, free, &y, &pinned, &corners))
     {
         let y1 = run(start);
         let m = measure(&y1);
