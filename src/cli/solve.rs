@@ -163,6 +163,9 @@ struct Report {
     /// Gaps the repair rounded again (their first rounding put two branch points on one
     /// lattice point): cut path index, old and new value.
     rerounded_gaps: Vec<param::Rerounded>,
+    /// Interior vertices (file indices) whose fan turns by other than their cone angle
+    /// although no face is folded: the map is not locally injective there.
+    miswound_vertices: Vec<usize>,
     /// What the local step removed from the guiding field (thesis sec. 3.3), in grid cells.
     curl: f64,
     seam_max_error: f64,
@@ -573,11 +576,12 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     timings.total = total.elapsed().as_secs_f64() * 1e3;
     let topo = mesh.topology();
     bar.line(format!(
-        "  {} singularities ({} poles), {} cut paths, {} flipped faces, seam error {:.1e}, conformal distortion {:.3} (p99 {:.3})",
+        "  {} singularities ({} poles), {} cut paths, {} flipped faces, {} mis-wound vertices, seam error {:.1e}, conformal distortion {:.3} (p99 {:.3})",
         p.singularities.len(),
         p.poles.len(),
         p.cut_paths.len(),
         p.flipped_faces,
+        p.miswound.len(),
         p.seam_max_error,
         p.conformal_distortion.mean,
         p.conformal_distortion.p99
@@ -602,6 +606,11 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             flipped_faces_before_repair: p.flipped_faces_before_repair,
             repair_ms: p.timings.repair_ms,
             rerounded_gaps: p.rerounded_gaps.clone(),
+            miswound_vertices: p
+                .miswound
+                .iter()
+                .map(|&v| repair.original_vertex[v] as usize)
+                .collect(),
             curl: p.curl,
             seam_max_error: p.seam_max_error,
             curves: p

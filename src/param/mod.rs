@@ -203,6 +203,11 @@ pub struct Parameterization {
     pub flipped_faces_before_repair: usize,
     /// Gaps the repair rounded again because their first rounding made folds unavoidable.
     pub rerounded_gaps: Vec<Rerounded>,
+    /// Interior vertices whose fan turns by other than their cone angle 2π(1 − index) although
+    /// no face around them need be folded (e.g. a −1/4 branch point turning 90° instead of
+    /// 450° beside a vertex turning 720°): the map is not locally injective there, and the
+    /// remesh gets a patched place. Poles' stars are not checked.
+    pub miswound: Vec<usize>,
     /// Singularities of positive integral index treated by alg. 6: their stars' triangles are
     /// bilinear quads (`uv` keeps the triangles' own corners there, which are not seamless at
     /// the pole: seams and folds of those faces are their quads').
@@ -273,6 +278,29 @@ struct Opened {
     untreated: Vec<usize>,
     mesh: TriMesh,
     qc: QuadCover,
+}
+
+/// Per vertex the angle by which the map's fan must turn around it, 2π(1 − index) (NaN on
+/// the boundary and at poles, index ≥ 1: not checked); see `untangle::miswound`.
+fn cones(mesh: &TriMesh, singularities: &[Singularity]) -> Vec<f64> {
+    let tau = std::f64::consts::TAU;
+    let mut out: Vec<f64> = (0..mesh.n_vertices())
+        .map(|v| {
+            if mesh.is_boundary_vertex(v) {
+                f64::NAN
+            } else {
+                tau
+            }
+        })
+        .collect();
+    for s in singularities {
+        out[s.vertex] = if s.index < 1.0 {
+            tau * (1.0 - s.index)
+        } else {
+            f64::NAN
+        };
+    }
+    out
 }
 
 /// Gaps tried per round when the repair left folds ([`QuadCover::reround`]), the best
@@ -437,6 +465,8 @@ impl QuadCover {
         p: Parameterization,
     ) -> Parameterization {
         let mut p = poles::close(mesh, &o.mesh, &self.rots, indices, p);
+        // The opened mesh's vertices are this mesh's, then the pole copies.
+        p.miswound.retain(|&v| v < mesh.n_vertices());
         p.singularities = singularities;
         p.untreated_poles = o.untreated.clone();
         p.timings.cut_ms += self.timings.cut_ms;
@@ -873,7 +903,9 @@ impl QuadCover {
         global_ms: f64,
         repair: &untangle::Repair,
     ) -> Parameterization {
+        let miswound = untangle::miswound(mesh, &uv, &cones(mesh, &singularities));
         let mut p = self.finish(mesh, singularities, uv, local.gaps.clone(), gaps);
+        p.miswound = miswound;
         p.curl = local.curl(mesh, frames);
         p.flipped_faces_before_repair = repair.before;
         p.timings = StageTimings {
@@ -934,6 +966,7 @@ impl QuadCover {
             flipped_faces: q.flipped,
             flipped_faces_before_repair: q.flipped,
             rerounded_gaps: Vec::new(),
+            miswound: Vec::new(),
             poles: Vec::new(),
             untreated_poles: Vec::new(),
             curl: 0.0,
