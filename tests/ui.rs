@@ -1671,6 +1671,23 @@ fn folded_count(n: usize) -> String {
     }
 }
 
+/// The end of the *Folds* line for `n` mis-wound vertices (`Parameterization::miswound`).
+fn wound_suffix(n: usize) -> String {
+    match n {
+        0 => String::new(),
+        1 => "; 1 mis-wound vertex".to_string(),
+        n => format!("; {n} mis-wound vertices"),
+    }
+}
+
+/// Thick overlay lines the *Folds* overlay draws for the document's folds: three per face,
+/// folded or around a mis-wound vertex.
+fn shown_lines(h: &Harness<'_, EditorApp>) -> usize {
+    let doc = &h.state().document;
+    let (mesh, folds) = (doc.mesh.as_ref().unwrap(), doc.folds.as_ref().unwrap());
+    3 * folds.shown_faces(mesh).len()
+}
+
 /// Pixels of the fold overlay's colour ([`FOLD_COLOR`], sRGB-encoded in the render).
 fn fold_pixels(img: &image::RgbaImage) -> usize {
     img.pixels()
@@ -1702,13 +1719,20 @@ fn the_folds_overlay_counts_and_draws_the_folded_faces() {
     h.get_by_label("Folds").click();
     h.run_steps(2);
     assert!(h.state().document.display.show_folds);
+    let wound = p.miswound.len();
     h.get_by_label(&match before {
-        0 => folded_count(folded.len()),
-        b => format!("{} ({b} before repair)", folded_count(folded.len())),
+        0 => format!("{}{}", folded_count(folded.len()), wound_suffix(wound)),
+        b => format!(
+            "{} ({b} before repair){}",
+            folded_count(folded.len()),
+            wound_suffix(wound)
+        ),
     });
+    let lines = shown_lines(&h);
+    assert!(lines >= 3 * folded.len());
     assert_eq!(
         h.state_mut().folds_overlay().map(|o| o.thick_lines.len()),
-        (!folded.is_empty()).then_some(3 * folded.len())
+        (lines > 0).then_some(lines)
     );
 
     // a map with folds: every 9th face's texture triangle mirrored
@@ -1738,17 +1762,20 @@ fn the_folds_overlay_counts_and_draws_the_folded_faces() {
         .expect("the folds of the map");
     assert_eq!(folds.faces, expected);
     h.get_by_label(&format!(
-        "{} folded faces ({} before repair)",
+        "{} folded faces ({} before repair){}",
         expected.len(),
-        expected.len() + 5
+        expected.len() + 5,
+        wound_suffix(wound)
     ));
     h.get_by_label_contains(&format!(
         "{} flipped faces ({} before repair, repair",
         expected.len(),
         expected.len() + 5
     ));
+    let lines = shown_lines(&h);
     let overlay = h.state_mut().folds_overlay().expect("the folds are drawn");
-    assert_eq!(overlay.thick_lines.len(), 3 * expected.len());
+    assert_eq!(overlay.thick_lines.len(), lines);
+    assert!(lines >= 3 * expected.len());
     assert!(overlay.thick_lines.iter().all(|l| l.color == FOLD_COLOR));
     // built once per result: the next frames reuse it
     h.run_steps(2);
@@ -1803,10 +1830,16 @@ fn untangle_folds_is_a_solve_setting() {
     h.get_by_label_contains(&format!("{unrepaired} flipped faces (untangling off)"));
     h.get_by_label("Folds").click();
     h.run_steps(2);
-    h.get_by_label(&format!("{} (untangling off)", folded_count(unrepaired)));
+    h.get_by_label(&format!(
+        "{} (untangling off){}",
+        folded_count(unrepaired),
+        wound_suffix(p.miswound.len())
+    ));
+    let lines = shown_lines(&h);
+    assert!(lines >= 3 * unrepaired);
     assert_eq!(
         h.state_mut().folds_overlay().map(|o| o.thick_lines.len()),
-        (unrepaired > 0).then_some(3 * unrepaired)
+        (lines > 0).then_some(lines)
     );
     save_render(&mut h, "ui_folds_unrepaired.png");
 
@@ -1840,8 +1873,9 @@ fn untangle_folds_is_a_solve_setting() {
             p.flipped_faces
         ));
         h.get_by_label(&format!(
-            "{} ({unrepaired} before repair)",
-            folded_count(p.flipped_faces)
+            "{} ({unrepaired} before repair){}",
+            folded_count(p.flipped_faces),
+            wound_suffix(p.miswound.len())
         ));
     } else {
         eprintln!("spot's global step left no folds: the repair had nothing to do");

@@ -101,6 +101,9 @@ pub struct Folds {
     /// Faces whose texture triangle has non-positive signed area (for a pole's star faces:
     /// whose quad folds, [`crate::param::Pole::quad_folded`]).
     pub faces: Vec<usize>,
+    /// Vertices where the map is not locally injective although no face is folded: their fan
+    /// turns by another multiple of 2π than their cone angle (`Parameterization::miswound`).
+    pub miswound: Vec<usize>,
     pub repair: FoldRepair,
 }
 
@@ -108,6 +111,7 @@ impl Folds {
     pub fn new(uv: &[[f64; 2]], repair: FoldRepair) -> Folds {
         Folds {
             faces: crate::param::folded_faces(uv),
+            miswound: Vec::new(),
             repair,
         }
     }
@@ -132,7 +136,8 @@ impl Folds {
         folds
     }
 
-    /// The panel's line: "N folded faces (M before repair)", "No folded faces", ….
+    /// The panel's line: "N folded faces (M before repair)", "No folded faces", …, and the
+    /// mis-wound vertices when there are any.
     pub fn summary(&self) -> String {
         let n = self.faces.len();
         let count = match n {
@@ -140,11 +145,27 @@ impl Folds {
             1 => "1 folded face".to_string(),
             n => format!("{n} folded faces"),
         };
-        match self.repair {
+        let line = match self.repair {
             FoldRepair::Ran { before: 0, .. } | FoldRepair::None => count,
             FoldRepair::Ran { before, .. } => format!("{count} ({before} before repair)"),
             FoldRepair::Off => format!("{count} (untangling off)"),
+        };
+        match self.miswound.len() {
+            0 => line,
+            1 => format!("{line}; 1 mis-wound vertex"),
+            m => format!("{line}; {m} mis-wound vertices"),
         }
+    }
+
+    /// The faces the overlay marks: the folded ones and those around mis-wound vertices.
+    pub fn shown_faces(&self, mesh: &crate::mesh::TriMesh) -> Vec<usize> {
+        let mut out = self.faces.clone();
+        for &v in self.miswound.iter().filter(|&&v| v < mesh.n_vertices()) {
+            out.extend(mesh.outgoing(v).map(|h| mesh.face_of(h)));
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
     }
 }
 
@@ -980,7 +1001,9 @@ impl Document {
             p.conformal_distortion.mean,
             p.curl
         );
-        self.folds = Some(Arc::new(Folds::with_poles(&p.uv, &p.poles, repair)));
+        let mut folds = Folds::with_poles(&p.uv, &p.poles, repair);
+        folds.miswound = p.miswound.clone();
+        self.folds = Some(Arc::new(folds));
         self.param = Some(match &self.mesh {
             Some(mesh) => ParamDisplay::from_parameterization(mesh, &p),
             None => ParamDisplay {

@@ -1,6 +1,7 @@
 //! The *Folds* overlay: the faces of the map shown whose texture triangle is folded
-//! (non-positive signed area, [`crate::param::folded_faces`]), outlined and hatched over the
-//! surface. The list is found once per result ([`super::document::Folds`]); the overlay is
+//! (non-positive signed area, [`crate::param::folded_faces`]) and the fans of mis-wound
+//! vertices (`Parameterization::miswound`: not locally injective although unfolded), outlined
+//! and hatched over the surface. The list is found once per result ([`super::document::Folds`]); the overlay is
 //! built once per list.
 
 use std::sync::Arc;
@@ -60,8 +61,8 @@ impl EditorApp {
             .as_ref()
             .is_some_and(|(f, _)| Arc::ptr_eq(f, folds))
         {
-            let overlay =
-                (!folds.faces.is_empty()).then(|| Arc::new(folds_overlay(mesh, &folds.faces)));
+            let faces = folds.shown_faces(mesh);
+            let overlay = (!faces.is_empty()).then(|| Arc::new(folds_overlay(mesh, &faces)));
             ui.cached = Some((folds.clone(), overlay));
         }
         ui.cached.as_ref().and_then(|(_, o)| o.clone())
@@ -101,5 +102,15 @@ mod tests {
             Folds::new(&uv, FoldRepair::Off).summary(),
             "1 folded face (untangling off)"
         );
+        // A mis-wound vertex: counted in the line, its fan marked with the folded faces.
+        let mut wound = Folds::new(&uv[..3], FoldRepair::Ran { before: 2, ms: 1.0 });
+        wound.miswound = vec![3];
+        assert_eq!(
+            wound.summary(),
+            "No folded faces (2 before repair); 1 mis-wound vertex"
+        );
+        assert_eq!(wound.shown_faces(&mesh), vec![1]);
+        wound.miswound = vec![0, 1];
+        assert_eq!(wound.shown_faces(&mesh), vec![0, 1]);
     }
 }
