@@ -632,19 +632,8 @@ fn stripes_are_left_alone() {
 #[test]
 #[ignore]
 fn sweep() {
-    let names = [
-        "bunny.obj",
-        "kitten.obj",
-        "eight.obj",
-        "fertility.obj",
-        "fandisk.obj",
-        "camelhead.obj",
-        "cerebral-vessels.obj",
-        "max-planck.obj",
-        "spot.obj",
-    ];
     let mut cases = Vec::new();
-    for name in names {
+    for name in meshes::EVERY_BUT_IGEA {
         let Some(mesh) = shared(name) else { return };
         for n in [4, 6] {
             let r = remesh_of(&mesh, n, 2000);

@@ -247,6 +247,18 @@ mod tests {
     use crate::field::transport::FaceBases;
     use crate::mesh::generate::grid;
 
+    /// A flat nx × nx grid over the unit square, its edge transport and the constant field
+    /// along `dir` (per face its angle).
+    fn flat_grid(nx: usize, dir: DVec3) -> (TriMesh, EdgeTransport, Vec<f64>) {
+        let mesh = grid(nx, nx, 1.0, 1.0);
+        let bases = FaceBases::new(&mesh);
+        let tr = EdgeTransport::new(&mesh, &bases);
+        let theta = (0..mesh.n_faces())
+            .map(|f| bases.angle_of(f, dir))
+            .collect();
+        (mesh, tr, theta)
+    }
+
     /// Interior vertices of nonzero turn index, with their index numerators.
     fn singular(mesh: &TriMesh, tr: &EdgeTransport, turns: &[i64], n: u32) -> Vec<(usize, i32)> {
         turn_indices(mesh, tr, turns, n)
@@ -264,12 +276,7 @@ mod tests {
     #[test]
     fn opposite_pairs_of_every_index_cancel_including_integral_ones() {
         let (nx, h) = (12, 1.0 / 12.0);
-        let mesh = grid(nx, nx, 1.0, 1.0);
-        let bases = FaceBases::new(&mesh);
-        let tr = EdgeTransport::new(&mesh, &bases);
-        let theta: Vec<f64> = (0..mesh.n_faces())
-            .map(|f| bases.angle_of(f, DVec3::new(1.0, 0.3, 0.0)))
-            .collect();
+        let (mesh, tr, theta) = flat_grid(nx, DVec3::new(1.0, 0.3, 0.0));
         let id = |i: usize, j: usize| j * (nx + 1) + i;
         let mut search = PathSearch::new(mesh.n_vertices());
         let mut failures = Vec::new();
@@ -333,12 +340,7 @@ mod tests {
     #[test]
     fn close_pairs_of_mixed_indices_cancel_and_far_ones_stay() {
         let (nx, h) = (24, 1.0 / 24.0);
-        let mesh = grid(nx, nx, 1.0, 1.0);
-        let bases = FaceBases::new(&mesh);
-        let tr = EdgeTransport::new(&mesh, &bases);
-        let theta: Vec<f64> = (0..mesh.n_faces())
-            .map(|f| bases.angle_of(f, DVec3::new(0.2, 1.0, 0.0)))
-            .collect();
+        let (mesh, tr, theta) = flat_grid(nx, DVec3::new(0.2, 1.0, 0.0));
         let id = |i: usize, j: usize| j * (nx + 1) + i;
         let n = 4;
         let mut turns = nearest_turns(&tr, &theta, TAU / n as f64);
