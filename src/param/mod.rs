@@ -174,6 +174,9 @@ pub struct LocalSolution {
     /// Curl*-free frames in each face's own frame (same convention as the input).
     pub curl_free: Vec<[DVec3; 2]>,
     disk: Vec<[DVec3; 2]>,
+    /// The input frames in the same disk frames: unlike the curl*-free ones never degenerate
+    /// next to a singularity (the rewinding's reference, `untangle::rewind`).
+    guide: Vec<[DVec3; 2]>,
     /// Integrated values per corner (disk frames), not yet seamless.
     pub uv: Vec<[f64; 2]>,
     /// Measured gap of each cut path (real valued).
@@ -521,6 +524,7 @@ impl QuadCover {
         Ok(LocalSolution {
             curl_free,
             disk,
+            guide: local::to_disk_frame(&self.rots, &self.cut, frames),
             uv,
             gaps,
             local_ms: ms(t),
@@ -593,7 +597,8 @@ impl QuadCover {
         let mut uv = self.global_uv(mesh, &local, &gaps)?;
         let global_ms = ms(t);
         let space = self.global.map_space(mesh.n_vertices(), &gaps);
-        let mut repair = self.untangle(mesh, &local, &space, &mut uv, cancel);
+        let cones = cones(mesh, &singularities);
+        let mut repair = self.untangle(mesh, &local, &space, Some(&cones), &mut uv, cancel);
         let mut gaps = gaps;
         let mut rerounded = Vec::new();
         if !untangle::folded(&uv).is_empty() && !self.opts.no_untangle && !cancel() {
@@ -698,7 +703,8 @@ impl QuadCover {
         };
         let global_ms = ms(t);
         // The repair holds the curves' fixed components: the fits below still hold exactly.
-        let repair = self.untangle(mesh, &local, &space, &mut uv, cancel);
+        let cones = cones(mesh, &singularities);
+        let repair = self.untangle(mesh, &local, &space, Some(&cones), &mut uv, cancel);
         if cancel() {
             return Err(ParamError::Cancelled);
         }
@@ -835,7 +841,7 @@ impl QuadCover {
                     if cancel() {
                         break 'tries;
                     }
-                    self.untangle(mesh, local, &space, &mut u, cancel);
+                    self.untangle(mesh, local, &space, None, &mut u, cancel);
                     let after = untangle::count_stuck(mesh, &self.rots, &space, &u);
                     if after < (stuck_now, folds_now.len()) {
                         *gaps = g;
@@ -843,6 +849,7 @@ impl QuadCover {
                         *repair = untangle::Repair {
                             before: repair.before,
                             ms: repair.ms,
+                            rewound: repair.rewound,
                             stuck: untangle::folded(uv)
                                 .into_iter()
                                 .filter(|&f| untangle::stuck(mesh, &self.rots, &space, uv, f))
@@ -876,6 +883,7 @@ impl QuadCover {
         mesh: &TriMesh,
         local: &LocalSolution,
         space: &untangle::MapSpace,
+        cones: Option<&[f64]>,
         uv: &mut [[f64; 2]],
         cancel: CancelCheck<'_>,
     ) -> untangle::Repair {
@@ -886,7 +894,7 @@ impl QuadCover {
                 ..Default::default()
             };
         }
-        untangle::repair(mesh, &self.rots, space, &local.disk, uv, cancel)
+        untangle::repair(mesh, &self.rots, space, &local.guide, cones, uv, cancel)
     }
 
     /// [`Self::finish`] plus what both solves add: the curl, the repair's counts and the

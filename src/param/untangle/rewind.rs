@@ -1,0 +1,242 @@
+//! Branch points the global step left wound the wrong number of turns (see
+//! [`super::miswound`]): a start for the repair that winds correctly.
+//!
+//! Why it happens: a branch point is fixed by the rounded gaps (eq. 2.40), up to about a cell
+//! away from where the guiding field puts it. The global step's energy is a Dirichlet energy,
+//! for which a single pinned point hardly matters: the ring follows the field, not the pinned
+//! point, and when the rounding moved the branch point farther than its ring is wide, the
+//! lattice point ends up outside the ring's image. The fan then turns 90° instead of 450° at a
+//! −1/4 singularity (a neighbour wraps twice to make up for it), and since a winding changes
+//! only through a degenerate face, the barrier of the repair keeps it so.
+//!
+//! What we do: minimise the same energy Σ w_f ‖J_f − I‖² over the few rings around such a
+//! branch point, the region's edge held, with the faces near the branch point made stiff
+//! (weights growing towards it). Stiff faces keep the shape of their target triangles, so the
+//! ring is carried along with the branch point and wraps its lattice point by the cone angle;
+//! the offset is spread over the softer outer rings. The result is kept only when the branch
+//! point then winds correctly; the repair unfolds what is left.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+
+use super::{MapSpace, NONE, corner_uv, fan_turn, jacobian, reference, unknowns_of};
+use crate::mesh::TriMesh;
+use crate::param::rot::{Rots, apply};
+use crate::sparse::{SparseBuilder, SpdSolver};
+
+/// The stiffenings tried per branch point, in order, until one winds it correctly: (rings of
+/// the region, stiffness S, stiff rings n). A face r rings out (its nearest corner; the fan is
+/// ring 0) weighs 1 + S t² times its own weight, with t = 1 − r / rings for n = 0 and t = 1
+/// within n rings, 0 beyond, otherwise. The soft one first: it adds the fewest folds for the
+/// repair to undo (bunny, N = 4: 12 of its 16 branch points, 27 → 23 folds; the stiff one
+/// alone 27 → 93 folds and half again the repair time).
+const LADDER: [(usize, f64, usize); 2] = [(8, 10.0, 0), (8, 100.0, 1)];
+
+/// Rewinds every held vertex of `uv` whose fan turns by more than π off `cones[v]`; returns
+/// how many were rewound. `guide` are the frames of the field in the disk frames: the
+/// curl*-free ones degenerate next to singularities, just where this works.
+pub(crate) fn rewind(
+    mesh: &TriMesh,
+    rots: &Rots,
+    space: &MapSpace,
+    guide: &[[DVec3; 2]],
+    mean_area: f64,
+    uv: &mut [[f64; 2]],
+    cones: &[f64],
+) -> usize {
+    let wrong = |uv: &[[f64; 2]], v: usize| {
+        !((fan_turn(mesh, uv, v) - cones[v]).abs() <= std::f64::consts::PI)
+    };
+    let held: Vec<usize> = (0..mesh.n_vertices())
+        .filter(|&v| {
+            !mesh.is_boundary_vertex(v)
+                && !cones[v].is_nan()
+                && space.var[mesh.vertex_halfedge(v)] == NONE
+                && wrong(uv, v)
+        })
+        .collect();
+    let mut done = 0;
+    for b in held {
+        // An earlier one's region may have rewound it already.
+        if !wrong(uv, b) {
+            continue;
+        }
+        for (rings, stiffness, stiff_rings) in LADDER {
+            let Some(y) = stiff_solve(
+                mesh,
+                rots,
+                space,
+                guide,
+                mean_area,
+                uv,
+                b,
+                (rings, stiffness, stiff_rings),
+            ) else {
+                continue;
+            };
+            let mut trial = uv.to_vec();
+            for (v, yv) in &y {
+                for h in mesh.outgoing(*v) {
+                    trial[h] = corner_uv(rots, space, h, *yv);
+                }
+            }
+            if !wrong(&trial, b) {
+                uv.copy_from_slice(&trial);
+                done += 1;
+                break;
+            }
+        }
+    }
+    done
+}
+
+/// The minimiser of Σ s_f w_f ‖J_f − I‖² (J_f against the target triangle of `guide`) over
+/// the free vertices within `rings` rings of `b`, everything else held; s_f from [`LADDER`].
+#[allow(clippy::too_many_arguments)]
+fn stiff_solve(
+    mesh: &TriMesh,
+    rots: &Rots,
+    space: &MapSpace,
+    guide: &[[DVec3; 2]],
+    mean_area: f64,
+    uv: &[[f64; 2]],
+    b: usize,
+    (rings, stiffness, stiff_rings): (usize, f64, usize),
+) -> Option<Vec<(usize, [f64; 2])>> {
+    // Rings from b.
+    let mut dist: HashMap<usize, usize> = HashMap::from([(b, 0)]);
+    let mut front = vec![b];
+    for d in 1..=rings {
+        let mut next = Vec::new();
+        for &v in &front {
+            for h in mesh.outgoing(v) {
+                for w in mesh.face(mesh.face_of(h)) {
+                    if let std::collections::hash_map::Entry::Vacant(e) = dist.entry(w) {
+                        e.insert(d);
+                        next.push(w);
+                    }
+                }
+            }
+        }
+        front = next;
+    }
+    let mut free: Vec<usize> = dist
+        .iter()
+        .filter(|&(&v, &d)| d < rings && space.var[mesh.vertex_halfedge(v)] != NONE)
+        .map(|(&v, _)| v)
+        .collect();
+    free.sort_unstable();
+    let slot: HashMap<usize, usize> = free.iter().enumerate().map(|(i, &v)| (v, i)).collect();
+    let mut unknown = vec![[NONE; 2]; free.len()];
+    let mut n = 0usize;
+    for (i, &v) in free.iter().enumerate() {
+        for k in 0..2 {
+            if space.free[v][k] {
+                unknown[i][k] = n as u32;
+                n += 1;
+            }
+        }
+    }
+    if n == 0 {
+        return None;
+    }
+    let mut faces: Vec<usize> = free
+        .iter()
+        .flat_map(|&v| mesh.outgoing(v).map(|h| mesh.face_of(h)))
+        .collect();
+    faces.sort_unstable();
+    faces.dedup();
+    let y0: Vec<[f64; 2]> = free
+        .iter()
+        .map(|&v| unknowns_of(mesh, rots, space, uv, v))
+        .collect();
+    // The energy is quadratic in the unknowns: one Newton step from y0 is its minimiser.
+    let mut g = vec![0.0; n];
+    let mut hb = SparseBuilder::<f64>::with_capacity(n, 36 * faces.len() + n);
+    let mut diag = 0.0;
+    for &f in &faces {
+        let r = reference(mesh, guide, f, mean_area);
+        let ring = mesh
+            .face(f)
+            .iter()
+            .map(|v| dist.get(v).copied().unwrap_or(rings))
+            .min()
+            .unwrap_or(rings);
+        let t = if stiff_rings == 0 {
+            1.0 - ring as f64 / rings as f64
+        } else if ring <= stiff_rings {
+            1.0
+        } else {
+            0.0
+        };
+        let w = 2.0 * r.weight * (1.0 + stiffness * t * t);
+        let q: [[f64; 2]; 3] = std::array::from_fn(|a| {
+            let c = 3 * f + a;
+            match slot.get(&mesh.from(c)) {
+                Some(&s) => corner_uv(rots, space, c, y0[s]),
+                None => uv[c],
+            }
+        });
+        let j = jacobian(&q, &r);
+        let res = [j[0] - 1.0, j[1], j[2], j[3] - 1.0];
+        // ∂J/∂y per unknown of the face.
+        let mut dj: Vec<(usize, [f64; 4])> = Vec::with_capacity(6);
+        for a in 0..3 {
+            let c = 3 * f + a;
+            let Some(&s) = slot.get(&mesh.from(c)) else {
+                continue;
+            };
+            let v = free[s];
+            for k in 0..2 {
+                let u = unknown[s][k];
+                if u == NONE {
+                    continue;
+                }
+                let basis = space.basis[v];
+                let d = apply(rots.get(space.rot[c] as i64), [basis[k], basis[2 + k]]);
+                let gr = r.grad[a];
+                dj.push((
+                    u as usize,
+                    [d[0] * gr[0], d[0] * gr[1], d[1] * gr[0], d[1] * gr[1]],
+                ));
+            }
+        }
+        for (p, dp) in &dj {
+            g[*p] += w * (0..4).map(|i| res[i] * dp[i]).sum::<f64>();
+            for (q, dq) in &dj {
+                let s = w * (0..4).map(|i| dp[i] * dq[i]).sum::<f64>();
+                if p == q {
+                    diag += s;
+                }
+                hb.add(*p, *q, s);
+            }
+        }
+    }
+    // Keeps the system definite where a vertex reaches no face term.
+    let reg = 1e-9 * diag / n as f64 + 1e-300;
+    for i in 0..n {
+        hb.add(i, i, reg);
+    }
+    let m = hb.build().ok()?;
+    let solver = SpdSolver::new(&m).ok()?;
+    let rhs: Vec<f64> = g.iter().map(|x| -x).collect();
+    let step = solver.solve(&rhs).ok()?;
+    if step.iter().any(|x| !x.is_finite()) {
+        return None;
+    }
+    Some(
+        free.iter()
+            .enumerate()
+            .map(|(i, &v)| {
+                let mut y = y0[i];
+                for k in 0..2 {
+                    if unknown[i][k] != NONE {
+                        y[k] += step[unknown[i][k] as usize];
+                    }
+                }
+                (v, y)
+            })
+            .collect(),
+    )
+}
