@@ -894,7 +894,16 @@ impl QuadCover {
                 ..Default::default()
             };
         }
-        untangle::repair(mesh, &self.rots, space, &local.guide, cones, uv, cancel)
+        untangle::repair(
+            mesh,
+            &self.rots,
+            space,
+            &local.disk,
+            &local.guide,
+            cones,
+            uv,
+            cancel,
+        )
     }
 
     /// [`Self::finish`] plus what both solves add: the curl, the repair's counts and the

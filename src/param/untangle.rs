@@ -484,12 +484,58 @@ fn project_psd(h: &[[f64; 4]; 4]) -> [[f64; 4]; 4] {
     })
 }
 
-/// Repairs the folded faces of `uv` (per corner, in the disk frames of `guide`) within the
-/// maps of `space`; see the module docs.
+/// Rings around a branch point within which the repair's references are the field's frames
+/// rather than the curl*-free ones (module docs).
+const GUIDE_RINGS: usize = 3;
+
+/// The frames the repair measures against: the field's (`guide`) within [`GUIDE_RINGS`] rings
+/// of a held vertex, the curl*-free ones (`disk`) elsewhere. Both in the disk frames.
+fn references(
+    mesh: &TriMesh,
+    space: &MapSpace,
+    disk: &[[DVec3; 2]],
+    guide: &[[DVec3; 2]],
+) -> Vec<[DVec3; 2]> {
+    let mut near = vec![false; mesh.n_vertices()];
+    let mut front: Vec<usize> = (0..mesh.n_vertices())
+        .filter(|&v| space.var[mesh.vertex_halfedge(v)] == NONE)
+        .collect();
+    for &v in &front {
+        near[v] = true;
+    }
+    for _ in 0..GUIDE_RINGS {
+        let mut next = Vec::new();
+        for &v in &front {
+            for h in mesh.outgoing(v) {
+                let w = mesh.from(mesh.next(h));
+                if !near[w] {
+                    near[w] = true;
+                    next.push(w);
+                }
+            }
+        }
+        front = next;
+    }
+    (0..mesh.n_faces())
+        .map(|f| {
+            if mesh.face(f).iter().any(|&v| near[v]) {
+                guide[f]
+            } else {
+                disk[f]
+            }
+        })
+        .collect()
+}
+
+/// Repairs the folded faces of `uv` (per corner, in the disk frames) within the maps of
+/// `space`; see the module docs. `disk` are the local step's curl*-free frames, `guide` the
+/// field's.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn repair(
     mesh: &TriMesh,
     rots: &Rots,
     space: &MapSpace,
+    disk: &[[DVec3; 2]],
     guide: &[[DVec3; 2]],
     cones: Option<&[f64]>,
     uv: &mut [[f64; 2]],
@@ -497,15 +543,25 @@ pub(crate) fn repair(
 ) -> Repair {
     let t = Instant::now();
     let before = folded(uv).len();
+    let reference = if before > 0 {
+        references(mesh, space, disk, guide)
+    } else {
+        guide.to_vec()
+    };
     // Sequential: a parallel float sum's order depends on the scheduling, and replay must be
     // bit-identical.
     let mean_area = (0..mesh.n_faces())
+        .map(|f| tri_area(&target(mesh, &reference, f)).abs())
+        .filter(|a| a.is_finite())
+        .sum::<f64>()
+        / mesh.n_faces() as f64;
+    let guide_area = (0..mesh.n_faces())
         .map(|f| tri_area(&target(mesh, guide, f)).abs())
         .filter(|a| a.is_finite())
         .sum::<f64>()
         / mesh.n_faces() as f64;
     let Some(cones) = cones else {
-        let stuck = unfold(mesh, rots, space, guide, &[], mean_area, uv, cancel);
+        let stuck = unfold(mesh, rots, space, &reference, &[], mean_area, uv, cancel);
         return Repair {
             before,
             stuck,
@@ -518,14 +574,20 @@ pub(crate) fn repair(
         };
     };
     let start = uv.to_vec();
-    let mut rewound = rewind::rewind(mesh, rots, space, guide, mean_area, uv, cones);
-    let mut stuck = unfold(mesh, rots, space, guide, cones, mean_area, uv, cancel);
+    let mut rewound = rewind::rewind(mesh, rots, space, guide, guide_area, uv, cones);
+    // Rewinding folds where the global step's map did not.
+    let reference = if before == 0 && !folded(uv).is_empty() {
+        references(mesh, space, disk, guide)
+    } else {
+        reference
+    };
+    let mut stuck = unfold(mesh, rots, space, &reference, cones, mean_area, uv, cancel);
     // The rewound start may leave folds that the global step's map does not (seen at N = 6
     // at coarse densities): then the better of both.
     if rewound > 0 && !folded(uv).is_empty() && !cancel() {
         let mut plain = start;
         let other = unfold(
-            mesh, rots, space, guide, cones, mean_area, &mut plain, cancel,
+            mesh, rots, space, &reference, cones, mean_area, &mut plain, cancel,
         );
         if folded(&plain).len() <= folded(uv).len() {
             uv.copy_from_slice(&plain);
