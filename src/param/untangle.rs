@@ -9,13 +9,14 @@
 //! code"), per face f_ε(J) = ((1 − θ) tr JᵀJ + θ (1 + det² J)) / χ(det J, ε) with
 //! χ(D, ε) = (D + √(ε² + D²)) / 2. It is finite on folded maps, and ε decreases by their rule
 //! until every det J > 0; from then on it is a barrier against inversion. J maps the face's
-//! target triangle (the field's frame applied to its edges, in the disk frames) to its texture
-//! triangle, so the energy measures the deviation from the map the global step was aiming at.
-//! The field's frames, not the local step's curl*-free ones: the global step's energy is the
-//! same with either (they differ by a part orthogonal to every gradient), but the curl*-free
-//! frames degenerate next to singularities, where most folds are; against them the barrier
-//! aimed at slivers there. Measured over the 72 cases of `tests/untangle.rs`: repair time
-//! 94 → 64 s, bunny 343 → 135–173 ms, mean-distortion misses 5 → 2 (docs/untangling.md). We minimise it by
+//! target triangle (a frame applied to its edges, in the disk frames) to its texture triangle,
+//! so the energy measures the deviation from the map the global step was aiming at. The frame
+//! is the local step's curl*-free one, except within [`GUIDE_RINGS`] rings of a branch point,
+//! where it is the field's: the global step's energy is the same with either (they differ by a
+//! part orthogonal to every gradient), but the curl*-free frames degenerate next to
+//! singularities, where most folds are, and the barrier then aimed at slivers there (measured:
+//! docs/untangling.md). Poles need the curl*-free ones. Branch points the global step wound
+//! the wrong number of turns are rewound first ([`rewind`]). We minimise the energy by
 //! Newton steps with per-face Hessians projected to positive semi-definite (4×4 eigenvalue
 //! clamping), not by L-BFGS: regions are small and Newton needs few steps. The Hessian's
 //! pattern and its symbolic analysis are computed once per region and reused by every step.
