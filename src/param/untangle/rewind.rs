@@ -14,7 +14,8 @@
 //! (weights growing towards it). Stiff faces keep the shape of their target triangles, so the
 //! ring is carried along with the branch point and wraps its lattice point by the cone angle;
 //! the offset is spread over the softer outer rings. The result is kept only when the branch
-//! point then winds correctly; the repair unfolds what is left.
+//! point then winds correctly and at most [`MAX_ADDED_FOLDS`] faces more are folded; the repair
+//! unfolds those.
 
 use std::collections::HashMap;
 
@@ -32,12 +33,11 @@ use crate::sparse::{SparseBuilder, SpdSolver};
 /// repair to undo (bunny, N = 4: 12 of its 16 branch points, 27 → 23 folds; the stiff one
 /// alone 27 → 93 folds and half again the repair time).
 const LADDER: [(usize, f64, usize); 2] = [(8, 10.0, 0), (8, 100.0, 1)];
-/// The width of a fan (mean edge length in grid cells) the ladder is made for, and the most
-/// its rings are multiplied by for finer meshes.
-const RING_CELLS: f64 = 0.7;
-/// Most folded faces a rewinding may add.
+/// Most folded faces a rewinding may add: a twist too tight for its region costs the repair
+/// more than the rewinding gains (bunny ×16 at 1.1 M faces without a limit: 239 → 1477 folds
+/// after rewinding and 11 s of repair; with it 3 s). More rings on fine meshes, where a fan is
+/// a small part of a cell, was measured and rejected (docs/untangling.md).
 const MAX_ADDED_FOLDS: i64 = 20;
-const MAX_RING_SCALE: f64 = 1.0;
 
 /// Rewinds every held vertex of `uv` whose fan turns by more than π off `cones[v]`; returns
 /// those rewound. `guide` are the frames of the field in the disk frames: the
@@ -68,21 +68,7 @@ pub(crate) fn rewind(
         if !wrong(uv, b) {
             continue;
         }
-        // Rings scaled to the mesh's resolution against the grid: the ladder is for fans about
-        // RING_CELLS wide (the shared meshes at the default density); a finer mesh needs
-        // more rings for the same room (bunny ×16 at 1.1 M faces: 239 → 1477 folds and 11 s
-        // of repair without this).
-        let reach = mesh
-            .outgoing(b)
-            .map(|h| {
-                let (a, p) = (uv[h], uv[mesh.next(h)]);
-                (p[0] - a[0]).hypot(p[1] - a[1])
-            })
-            .sum::<f64>()
-            / mesh.outgoing(b).count().max(1) as f64;
-        let scale = (RING_CELLS / reach).round().clamp(1.0, MAX_RING_SCALE) as usize;
         for (rings, stiffness, stiff_rings) in LADDER {
-            let (rings, stiff_rings) = (rings * scale, stiff_rings * scale);
             let Some(y) = stiff_solve(
                 mesh,
                 rots,
