@@ -226,13 +226,80 @@ fn pinched(mesh: &TriMesh, rots: &Rots, space: &MapSpace, uv: &[[f64; 2]], c: us
 
 /// The angle by which the fan of vertex v turns in `uv`: the sum of its corners' signed angles.
 pub(crate) fn fan_turn(mesh: &TriMesh, uv: &[[f64; 2]], v: usize) -> f64 {
+    fan_turn_with(mesh, v, |c| uv[c])
+}
+
+/// [`fan_turn`] with the texture coordinates of corner c given by `at(c)`.
+fn fan_turn_with(mesh: &TriMesh, v: usize, at: impl Fn(usize) -> [f64; 2]) -> f64 {
     mesh.outgoing(v)
         .map(|h| {
-            let (a, b, c) = (uv[h], uv[mesh.next(h)], uv[mesh.prev(h)]);
+            let (a, b, c) = (at(h), at(mesh.next(h)), at(mesh.prev(h)));
             let (p, q) = ([b[0] - a[0], b[1] - a[1]], [c[0] - a[0], c[1] - a[1]]);
             (p[0] * q[1] - p[1] * q[0]).atan2(p[0] * q[0] + p[1] * q[1])
         })
         .sum()
+}
+
+/// The unknowns of the vertices `free` (per vertex and component, NONE where the component is
+/// held) and their number.
+fn number_unknowns(space: &MapSpace, free: &[usize]) -> (Vec<[u32; 2]>, usize) {
+    let mut unknown = vec![[NONE; 2]; free.len()];
+    let mut n = 0usize;
+    for (i, &v) in free.iter().enumerate() {
+        for k in 0..2 {
+            if space.free[v][k] {
+                unknown[i][k] = n as u32;
+                n += 1;
+            }
+        }
+    }
+    (unknown, n)
+}
+
+/// The faces around the vertices `free`, sorted.
+fn faces_around(mesh: &TriMesh, free: &[usize]) -> Vec<usize> {
+    let mut faces: Vec<usize> = free
+        .iter()
+        .flat_map(|&v| mesh.outgoing(v).map(|h| mesh.face_of(h)))
+        .collect();
+    faces.sort_unstable();
+    faces.dedup();
+    faces
+}
+
+/// ∂J/∂y of face f (corners 3f..3f + 2) per unknown: ψ is affine in y, so these are constant.
+/// `slot[a]` is the local slot of corner a's vertex in `free`, NONE when it is held.
+fn jacobian_terms(
+    rots: &Rots,
+    space: &MapSpace,
+    free: &[usize],
+    unknown: &[[u32; 2]],
+    corners: [usize; 3],
+    slot: [u32; 3],
+    reference: &Reference,
+) -> Vec<(usize, [f64; 4])> {
+    let mut dj = Vec::with_capacity(6);
+    for a in 0..3 {
+        let s = slot[a];
+        if s == NONE {
+            continue;
+        }
+        let (c, v) = (corners[a], free[s as usize]);
+        for k in 0..2 {
+            let u = unknown[s as usize][k];
+            if u == NONE {
+                continue;
+            }
+            let q = space.basis[v];
+            let d = apply(rots.get(space.rot[c] as i64), [q[k], q[2 + k]]);
+            let gr = reference.grad[a];
+            dj.push((
+                u as usize,
+                [d[0] * gr[0], d[0] * gr[1], d[1] * gr[0], d[1] * gr[1]],
+            ));
+        }
+    }
+    dj
 }
 
 /// Interior vertices whose fan does not turn by its cone angle `cones[v]` (2π(1 − index); NaN
@@ -544,6 +611,11 @@ pub(crate) fn repair(
 ) -> Repair {
     let t = Instant::now();
     let before = folded(uv).len();
+    let held = cones.map_or_else(Vec::new, |c| rewind::wrongly_wound(mesh, space, uv, c));
+    // Nothing to do (most solves): no copies, no sums over the mesh.
+    if before == 0 && held.is_empty() {
+        return Repair::default();
+    }
     let reference = if before > 0 {
         references(mesh, space, disk, guide)
     } else {
@@ -585,7 +657,7 @@ pub(crate) fn repair(
         };
     };
     let start = uv.to_vec();
-    let turned = rewind::rewind(mesh, rots, space, guide, guide_area, uv, cones);
+    let turned = rewind::rewind(mesh, rots, space, guide, guide_area, uv, cones, held);
     let mut rewound = turned.len();
     // Rewinding folds where the global step's map did not.
     let reference = if before == 0 && rewound > 0 {
@@ -748,22 +820,8 @@ fn unwinds(
         None => uv[c],
     };
     held.into_iter().any(|b| {
-        let turn = |after: bool| -> f64 {
-            mesh.outgoing(b)
-                .map(|h| {
-                    let (p, q) = if after {
-                        (at(mesh.next(h)), at(mesh.prev(h)))
-                    } else {
-                        (uv[mesh.next(h)], uv[mesh.prev(h)])
-                    };
-                    let a = uv[h];
-                    let (x, z) = ([p[0] - a[0], p[1] - a[1]], [q[0] - a[0], q[1] - a[1]]);
-                    (x[0] * z[1] - x[1] * z[0]).atan2(x[0] * z[0] + x[1] * z[1])
-                })
-                .sum()
-        };
         let right = |t: f64| (t - cones[b]).abs() <= std::f64::consts::PI;
-        right(turn(false)) && !right(turn(true))
+        right(fan_turn(mesh, uv, b)) && !right(fan_turn_with(mesh, b, at))
     })
 }
 
@@ -1081,14 +1139,7 @@ fn ring_start(
         if mesh.is_boundary_vertex(v) {
             continue;
         }
-        let angle: f64 = mesh
-            .outgoing(v)
-            .map(|h| {
-                let (a, b, c) = (uv[h], uv[mesh.next(h)], uv[mesh.prev(h)]);
-                let (p, q) = ([b[0] - a[0], b[1] - a[1]], [c[0] - a[0], c[1] - a[1]]);
-                (p[0] * q[1] - p[1] * q[0]).atan2(p[0] * q[0] + p[1] * q[1])
-            })
-            .sum();
+        let angle = fan_turn(mesh, uv, v);
         if (angle - std::f64::consts::TAU).abs() <= std::f64::consts::PI {
             continue;
         }
@@ -1136,25 +1187,11 @@ fn solve_region(
         .map(|(i, &v)| (v, i as u32))
         .collect();
     // Unknown index per (slot, component).
-    let mut unknown = vec![[NONE; 2]; free.len()];
-    let mut n = 0usize;
-    for (i, &v) in free.iter().enumerate() {
-        for k in 0..2 {
-            if space.free[v][k] {
-                unknown[i][k] = n as u32;
-                n += 1;
-            }
-        }
-    }
+    let (unknown, n) = number_unknowns(space, free);
     if n == 0 {
         return Vec::new();
     }
-    let mut faces: Vec<usize> = free
-        .iter()
-        .flat_map(|&v| mesh.outgoing(v).map(|h| mesh.face_of(h)))
-        .collect();
-    faces.sort_unstable();
-    faces.dedup();
+    let mut faces = faces_around(mesh, free);
     // A stuck face's determinant does not depend on the unknowns; its barrier would only
     // swamp the others.
     faces.retain(|&f| uv_area(uv, f) > 0.0 || !stuck(mesh, rots, space, uv, f));
@@ -1195,10 +1232,6 @@ fn solve_region(
             .sum()
     };
     // d ψ_c / d y_{v,k} for a corner of a free vertex.
-    let direction = |c: usize, v: usize, k: usize| -> [f64; 2] {
-        let q = space.basis[v];
-        apply(rots.get(space.rot[c] as i64), [q[k], q[2 + k]])
-    };
     // The map with the region's unknowns `y` written in (a copy of `uv`).
     let corners_of = |y: &[[f64; 2]]| -> Vec<[f64; 2]> {
         let mut out = uv.to_vec();
@@ -1218,27 +1251,15 @@ fn solve_region(
     let terms: Vec<Vec<(usize, [f64; 4])>> = rf
         .iter()
         .map(|face| {
-            let mut dj = Vec::with_capacity(6);
-            for a in 0..3 {
-                let s = face.slot[a];
-                if s == NONE {
-                    continue;
-                }
-                let v = free[s as usize];
-                for k in 0..2 {
-                    let u = unknown[s as usize][k];
-                    if u == NONE {
-                        continue;
-                    }
-                    let d = direction(face.corners[a], v, k);
-                    let gr = face.reference.grad[a];
-                    dj.push((
-                        u as usize,
-                        [d[0] * gr[0], d[0] * gr[1], d[1] * gr[0], d[1] * gr[1]],
-                    ));
-                }
-            }
-            dj
+            jacobian_terms(
+                rots,
+                space,
+                free,
+                &unknown,
+                face.corners,
+                face.slot,
+                &face.reference,
+            )
         })
         .collect();
     let mut b = SparseBuilder::<f64>::with_capacity(

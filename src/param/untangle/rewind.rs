@@ -21,9 +21,12 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 
-use super::{MapSpace, NONE, corner_uv, fan_turn, jacobian, reference, unknowns_of};
+use super::{
+    MapSpace, NONE, corner_uv, faces_around, fan_turn, fan_turn_with, jacobian, jacobian_terms,
+    number_unknowns, reference, unknowns_of,
+};
 use crate::mesh::TriMesh;
-use crate::param::rot::{Rots, apply};
+use crate::param::rot::Rots;
 use crate::sparse::{SparseBuilder, SpdSolver};
 
 /// The stiffenings tried per branch point, in order, until one winds it correctly: (rings of
@@ -39,9 +42,28 @@ const LADDER: [(usize, f64, usize); 2] = [(8, 10.0, 0), (8, 100.0, 1)];
 /// a small part of a cell, was measured and rejected (docs/untangling.md).
 const MAX_ADDED_FOLDS: i64 = 20;
 
-/// Rewinds every held vertex of `uv` whose fan turns by more than π off `cones[v]`; returns
-/// those rewound. `guide` are the frames of the field in the disk frames: the
-/// curl*-free ones degenerate next to singularities, just where this works.
+/// The held interior vertices of `uv` (branch points) whose fan turns by more than π off
+/// `cones[v]`.
+pub(crate) fn wrongly_wound(
+    mesh: &TriMesh,
+    space: &MapSpace,
+    uv: &[[f64; 2]],
+    cones: &[f64],
+) -> Vec<usize> {
+    (0..mesh.n_vertices())
+        .filter(|&v| {
+            !mesh.is_boundary_vertex(v)
+                && !cones[v].is_nan()
+                && space.var[mesh.vertex_halfedge(v)] == NONE
+                && !((fan_turn(mesh, uv, v) - cones[v]).abs() <= std::f64::consts::PI)
+        })
+        .collect()
+}
+
+/// Rewinds the vertices `held` ([`wrongly_wound`]) in turn; returns those rewound. `guide`
+/// are the frames of the field in the disk frames: the curl*-free ones degenerate next to
+/// singularities, just where this works.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn rewind(
     mesh: &TriMesh,
     rots: &Rots,
@@ -50,18 +72,11 @@ pub(crate) fn rewind(
     mean_area: f64,
     uv: &mut [[f64; 2]],
     cones: &[f64],
+    held: Vec<usize>,
 ) -> Vec<usize> {
     let wrong = |uv: &[[f64; 2]], v: usize| {
         !((fan_turn(mesh, uv, v) - cones[v]).abs() <= std::f64::consts::PI)
     };
-    let held: Vec<usize> = (0..mesh.n_vertices())
-        .filter(|&v| {
-            !mesh.is_boundary_vertex(v)
-                && !cones[v].is_nan()
-                && space.var[mesh.vertex_halfedge(v)] == NONE
-                && wrong(uv, v)
-        })
-        .collect();
     let mut done = Vec::new();
     for b in held {
         // An earlier one's region may have rewound it already.
@@ -88,14 +103,7 @@ pub(crate) fn rewind(
                 Some(&yv) => corner_uv(rots, space, c, yv),
                 None => uv[c],
             };
-            let turn: f64 = mesh
-                .outgoing(b)
-                .map(|h| {
-                    let (a, p, q) = (uv[h], at(mesh.next(h)), at(mesh.prev(h)));
-                    let (x, z) = ([p[0] - a[0], p[1] - a[1]], [q[0] - a[0], q[1] - a[1]]);
-                    (x[0] * z[1] - x[1] * z[0]).atan2(x[0] * z[0] + x[1] * z[1])
-                })
-                .sum();
+            let turn = fan_turn_with(mesh, b, at);
             // Folds the rewinding adds, for the repair to undo: past a few it costs more than
             // it gains (a twist too tight for the region).
             let mut faces: Vec<usize> = y
@@ -165,25 +173,11 @@ fn stiff_solve(
         .collect();
     free.sort_unstable();
     let slot: HashMap<usize, usize> = free.iter().enumerate().map(|(i, &v)| (v, i)).collect();
-    let mut unknown = vec![[NONE; 2]; free.len()];
-    let mut n = 0usize;
-    for (i, &v) in free.iter().enumerate() {
-        for k in 0..2 {
-            if space.free[v][k] {
-                unknown[i][k] = n as u32;
-                n += 1;
-            }
-        }
-    }
+    let (unknown, n) = number_unknowns(space, &free);
     if n == 0 {
         return None;
     }
-    let mut faces: Vec<usize> = free
-        .iter()
-        .flat_map(|&v| mesh.outgoing(v).map(|h| mesh.face_of(h)))
-        .collect();
-    faces.sort_unstable();
-    faces.dedup();
+    let faces = faces_around(mesh, &free);
     let y0: Vec<[f64; 2]> = free
         .iter()
         .map(|&v| unknowns_of(mesh, rots, space, uv, v))
@@ -217,28 +211,17 @@ fn stiff_solve(
         });
         let j = jacobian(&q, &r);
         let res = [j[0] - 1.0, j[1], j[2], j[3] - 1.0];
-        // ∂J/∂y per unknown of the face.
-        let mut dj: Vec<(usize, [f64; 4])> = Vec::with_capacity(6);
-        for a in 0..3 {
-            let c = 3 * f + a;
-            let Some(&s) = slot.get(&mesh.from(c)) else {
-                continue;
-            };
-            let v = free[s];
-            for k in 0..2 {
-                let u = unknown[s][k];
-                if u == NONE {
-                    continue;
-                }
-                let basis = space.basis[v];
-                let d = apply(rots.get(space.rot[c] as i64), [basis[k], basis[2 + k]]);
-                let gr = r.grad[a];
-                dj.push((
-                    u as usize,
-                    [d[0] * gr[0], d[0] * gr[1], d[1] * gr[0], d[1] * gr[1]],
-                ));
-            }
-        }
+        let slots: [u32; 3] =
+            std::array::from_fn(|a| slot.get(&mesh.from(3 * f + a)).map_or(NONE, |&s| s as u32));
+        let dj = jacobian_terms(
+            rots,
+            space,
+            &free,
+            &unknown,
+            [3 * f, 3 * f + 1, 3 * f + 2],
+            slots,
+            &r,
+        );
         for (p, dp) in &dj {
             g[*p] += w * (0..4).map(|i| res[i] * dp[i]).sum::<f64>();
             for (q, dq) in &dj {
