@@ -175,7 +175,8 @@ pub struct LocalSolution {
     pub curl_free: Vec<[DVec3; 2]>,
     disk: Vec<[DVec3; 2]>,
     /// The input frames in the same disk frames: unlike the curl*-free ones never degenerate
-    /// next to a singularity (the rewinding's reference, `untangle::rewind`).
+    /// next to a singularity (the references of the rewinding and, near branch points, of the
+    /// repair: `untangle::rewind`, `untangle::repair`).
     guide: Vec<[DVec3; 2]>,
     /// Integrated values per corner (disk frames), not yet seamless.
     pub uv: Vec<[f64; 2]>,
