@@ -79,8 +79,25 @@ fn remesh_boundary(r: &Remesh) -> Vec<bool> {
     out
 }
 
-/// Remesh vertices at input boundary vertices where the boundary turns by more than 30°.
+/// Remesh vertices at input boundary vertices where the boundary turns by more than 30°, both
+/// between the vertex's neighbours and between the points a mean remesh edge length away along
+/// the boundary (or where it ends).
 fn boundary_corners(mesh: &TriMesh, r: &Remesh) -> Vec<usize> {
+    let scale = {
+        let mut sum = 0.0;
+        let mut count = 0;
+        let mut seen = std::collections::HashSet::new();
+        for f in &r.faces {
+            for k in 0..f.len() {
+                let (a, b) = (f[k], f[(k + 1) % f.len()]);
+                if a != b && seen.insert((a.min(b), a.max(b))) {
+                    sum += (r.positions[a as usize] - r.positions[b as usize]).length();
+                    count += 1;
+                }
+            }
+        }
+        sum / count.max(1) as f64
+    };
     let mut nbrs: Vec<Vec<usize>> = vec![Vec::new(); mesh.n_vertices()];
     for e in 0..mesh.n_edges() {
         if mesh.is_boundary_edge(e) {
@@ -97,13 +114,35 @@ fn boundary_corners(mesh: &TriMesh, r: &Remesh) -> Vec<usize> {
             return true;
         }
         let p = mesh.position(u);
-        let (a, b) = (mesh.position(nbrs[u][0]), mesh.position(nbrs[u][1]));
-        (p - a)
-            .normalize()
-            .dot((b - p).normalize())
-            .acos()
-            .to_degrees()
-            > 30.0
+        let turn = |a: DVec3, b: DVec3| {
+            (p - a)
+                .normalize()
+                .dot((b - p).normalize())
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees()
+                > 30.0
+        };
+        // walk from u through w until `scale` along, a branch or an end (or 64 edges)
+        let far = |w: usize| {
+            let (mut prev, mut at) = (u, w);
+            let mut len = (mesh.position(w) - p).length();
+            for _ in 0..64 {
+                if len >= scale || nbrs[at].len() != 2 || at == u {
+                    break;
+                }
+                let next = if nbrs[at][0] == prev {
+                    nbrs[at][1]
+                } else {
+                    nbrs[at][0]
+                };
+                len += (mesh.position(next) - mesh.position(at)).length();
+                (prev, at) = (at, next);
+            }
+            mesh.position(at)
+        };
+        let (a, b) = (nbrs[u][0], nbrs[u][1]);
+        turn(mesh.position(a), mesh.position(b)) && turn(far(a), far(b))
     };
     (0..r.positions.len())
         .filter(|&v| matches!(r.origins[v], Origin::Vertex(u) if corner(u as usize)))
@@ -642,20 +681,13 @@ fn sweep() {
         }
     }
     let mut sets = Vec::new();
-    let sws: Vec<f64> = std::env::var("SW")
-        .map(|s| s.split(',').map(|x| x.parse().unwrap()).collect())
-        .unwrap_or(vec![0.0, 0.25, 0.5]);
-    for sw in sws {
-        for lw in [0.5, 1.0] {
-            for (step, iterations) in [(0.5, 10), (0.5, 20), (0.5, 40), (1.0, 20)] {
-                sets.push(RelaxOptions {
-                    iterations,
-                    step,
-                    laplacian_weight: lw,
-                    spring_weight: sw,
-                    ..Default::default()
-                });
-            }
+    for pull in [0.02, 0.1, 0.5] {
+        for iterations in [3, 6, 9, 18] {
+            sets.push(RelaxOptions {
+                iterations,
+                pull,
+                ..Default::default()
+            });
         }
     }
     for o in sets {
@@ -683,10 +715,8 @@ fn sweep() {
         }
         let k = cases.len() as f64;
         println!(
-            "sw {} lw {} step {} it {}: edge {:.3} angle {:.3} min-angle change {:.2}\n   {rows}",
-            o.spring_weight,
-            o.laplacian_weight,
-            o.step,
+            "pull {} it {}: edge {:.3} angle {:.3} min-angle change {:.2}\n   {rows}",
+            o.pull,
             o.iterations,
             se / k,
             sa / k,

@@ -18,6 +18,9 @@ use quadcover::mesh::TriMesh;
 struct Case {
     mesh: TriMesh,
     remesh: Remesh,
+    /// The same extraction without relaxation: the same faces, the vertices where the map puts
+    /// them (relaxation slides the grid by up to a few cells to even out its sizes).
+    unrelaxed: Remesh,
     singular: Vec<DVec3>,
 }
 
@@ -32,6 +35,11 @@ fn remesh_of(name: &str, n: u32) -> Option<Case> {
     let solved = base.solve(base.initial(), &never).unwrap();
     let mesh = (**base.mesh()).clone();
     let remesh = extract(&mesh, &solved.param.uv, n as u8, &ExtractOptions::default()).unwrap();
+    let unrelaxed = ExtractOptions {
+        relax: None,
+        ..Default::default()
+    };
+    let unrelaxed = extract(&mesh, &solved.param.uv, n as u8, &unrelaxed).unwrap();
     let singular = solved
         .param
         .singularities
@@ -41,6 +49,7 @@ fn remesh_of(name: &str, n: u32) -> Option<Case> {
     Some(Case {
         mesh,
         remesh,
+        unrelaxed,
         singular,
     })
 }
@@ -73,14 +82,17 @@ fn default_remeshes_are_pure_and_keep_the_topology() {
                 "{what}: boundary loops"
             );
             let irregular = irregular_vertices(r);
-            let h = mean_edge(r);
+            // where the map puts the irregular vertices: relaxation keeps the faces
+            assert_eq!(
+                r.faces, c.unrelaxed.faces,
+                "{what}: relaxation kept the faces"
+            );
+            let h = mean_edge(&c.unrelaxed);
             let far: Vec<u32> = irregular
                 .iter()
                 .copied()
                 .filter(|&v| {
-                    let p = r.positions[v as usize];
-                    // Relaxation moves singular vertices freely: up to 1.55 edge lengths
-                    // measured (max-planck N = 4; exactly on them without relaxation).
+                    let p = c.unrelaxed.positions[v as usize];
                     !c.singular.iter().any(|s| (*s - p).length() < 2.0 * h)
                 })
                 .collect();

@@ -25,6 +25,7 @@ mod snap;
 pub use purify::PurifyStats;
 mod quality;
 pub mod relax;
+pub mod square_fit;
 mod stripes;
 pub mod surface;
 mod trace;

@@ -1,17 +1,23 @@
 //! Tangential relaxation of a remesh on the input surface (the last step of Instant Meshes and
 //! QuadWild): the connectivity stays, the vertices move to even out edge lengths and angles.
 //!
-//! Each iteration is a Jacobi step (every vertex moves from the previous iterate only, so the
-//! result does not depend on the thread count):
-//! - *free* vertices move a fraction `step` of the way to the mean of their faces' ideal
-//!   positions (per quad the square completed over the diagonal of its two neighbours, per
-//!   triangle the equilateral apex over the opposite edge, in the input's tangent plane),
-//!   blended with the neighbour mean, and are projected back onto the input ([`Surface`]);
-//! - *sliding* vertices (on a constraint chain: boundary loops, feature curves) move to the
-//!   midpoint of their two neighbours along the chain and are projected onto that chain only,
-//!   near where they were (never onto another chain passing nearby);
+//! Each iteration is one local/global step of the square fit ([`super::square_fit`]): every
+//! face gets its ideal polygon (a square or equilateral triangle of the remesh's mean edge
+//! length, turned to fit it in its tangent plane), then one sparse solve moves all vertices at
+//! once, each in its tangent plane, to match those polygons best. Then:
+//! - *free* vertices are projected back onto the input ([`Surface`]);
+//! - *sliding* vertices (on a constraint chain: boundary loops, feature curves) move along the
+//!   chain's tangent only and are projected onto that chain, near where they were (never onto
+//!   another chain passing nearby);
 //! - *fixed* vertices (chain corners: input vertices with a number of constrained edges other
-//!   than two, or where the chain turns by more than `corner_angle_deg`) do not move.
+//!   than two, or where the chain turns by more than `corner_angle_deg` both between its
+//!   neighbours and between the points a remesh edge length away along it, so that a scan's
+//!   jagged boundary is not all corners) do not move.
+//!
+//! The solve is global, so the sizes even out across the mesh in a few iterations, where the
+//! Jacobi smoothing this replaced moved each vertex towards its neighbours only
+//! (`docs/remesh.md` has both measured). What it cannot even out is the map's own variation of
+//! scale along the grid's rows: the connectivity fixes how many quads go around each part.
 //!
 //! After each step, faces that would flip against the input (their Newell normal against the
 //! input's normal at the closest point to the face centroid, with a margin) or whose smallest
@@ -24,6 +30,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::square_fit::{TangentFrame, TangentSystem, ideal_polygons};
 use super::surface::Surface;
 use super::{Origin, Remesh};
 use crate::mesh::TriMesh;
@@ -31,17 +38,16 @@ use crate::mesh::TriMesh;
 /// Options of [`relax`].
 #[derive(Clone, Debug)]
 pub struct RelaxOptions {
-    /// Jacobi iterations (0 = off).
+    /// Local/global iterations of the square fit (0 = off).
     pub iterations: usize,
-    /// Fraction of the way to the target moved per iteration (0..=1).
-    pub step: f64,
-    /// Weight of the neighbour mean (uniform Laplacian) against the per-face ideal shapes.
-    pub laplacian_weight: f64,
-    /// Weight of the spring target (every edge pulled towards the mean edge length of the
-    /// remesh) against the shape target above: what evens out edge lengths across the mesh
-    /// (the Laplacian and the ideal shapes only even them out locally). 0 keeps the
-    /// parameterization's sizing (e.g. a curvature-adaptive density).
-    pub spring_weight: f64,
+    /// How strongly each vertex is pulled towards where it is in each step (μ of the square
+    /// fit, against 1 per corner pair the vertex is in: a quad vertex of valence 4 is in 12):
+    /// small values take the whole step of the fit at once.
+    pub pull: f64,
+    /// How much every face is fitted to one common size (the mean edge length) rather than to
+    /// its own (0..=1; the square fit's size blend): 1 evens out edge lengths across the mesh
+    /// at some cost in angles where the map's scale varies, 0 evens out shapes only.
+    pub size_weight: f64,
     /// Chains of constrained input edges turning by more than this (degrees) at a vertex have a
     /// fixed corner there.
     pub corner_angle_deg: f64,
@@ -53,10 +59,9 @@ pub struct RelaxOptions {
 impl Default for RelaxOptions {
     fn default() -> Self {
         RelaxOptions {
-            iterations: 20,
-            step: 0.5,
-            laplacian_weight: 1.0,
-            spring_weight: 0.5,
+            iterations: 9,
+            pull: 0.1,
+            size_weight: 0.75,
             corner_angle_deg: 30.0,
             min_angle_deg: 15.0,
         }
@@ -166,7 +171,16 @@ struct Chains {
     corner: Vec<bool>,
 }
 
-fn build_chains(input: &TriMesh, constrained: &[bool], corner_angle_deg: f64) -> Chains {
+/// The input's constraint chains; a chain turning by more than `corner_angle_deg` at a vertex
+/// has a corner there if it also turns by more than that between the points `scale` away along
+/// the chain on either side: a scan's jagged boundary turns sharply at many vertices, but
+/// not over a remesh edge.
+fn build_chains(
+    input: &TriMesh,
+    constrained: &[bool],
+    corner_angle_deg: f64,
+    scale: f64,
+) -> Chains {
     let nv = input.n_vertices();
     let ne = input.n_edges();
     let is_con =
@@ -189,11 +203,32 @@ fn build_chains(input: &TriMesh, constrained: &[bool], corner_angle_deg: f64) ->
             0 => false,
             2 => {
                 let p = input.position(v);
-                let a = input.position(other(incident[v][0], v));
-                let b = input.position(other(incident[v][1], v));
+                // the point `scale` away along the chain, or where the chain ends or branches
+                let reach = |first: usize| {
+                    let (mut e, mut q) = (first, other(first, v));
+                    let mut walked = (input.position(q) - p).length();
+                    // at most 64 input edges: a remesh edge spans a few on any input we take
+                    for _ in 0..64 {
+                        if walked >= scale || incident[q].len() != 2 || q == v {
+                            break;
+                        }
+                        let Some(g) = incident[q].iter().copied().find(|&g| g != e) else {
+                            break;
+                        };
+                        let r = other(g, q);
+                        walked += (input.position(r) - input.position(q)).length();
+                        (e, q) = (g, r);
+                    }
+                    input.position(q)
+                };
                 // turn angle between (p − a) and (b − p)
-                let (u, w) = ((p - a).normalize_or_zero(), (b - p).normalize_or_zero());
-                u.dot(w) < cos_max
+                let turns = |a: DVec3, b: DVec3| {
+                    let (u, w) = ((p - a).normalize_or_zero(), (b - p).normalize_or_zero());
+                    u.dot(w) < cos_max
+                };
+                let near = |e: usize| input.position(other(e, v));
+                turns(near(incident[v][0]), near(incident[v][1]))
+                    && turns(reach(incident[v][0]), reach(incident[v][1]))
             }
             _ => true,
         })
@@ -372,7 +407,18 @@ pub fn relax_holding(
         l.sort_unstable();
     }
     // --- classification -------------------------------------------------------------------
-    let chains = build_chains(input, constrained, opts.corner_angle_deg);
+    let rest = {
+        let mut edges: Vec<(u32, u32)> =
+            undirected.keys().copied().filter(|e| e.0 != e.1).collect();
+        edges.sort_unstable();
+        let p = &remesh.positions;
+        edges
+            .iter()
+            .map(|&(a, b)| (p[a as usize] - p[b as usize]).length())
+            .sum::<f64>()
+            / edges.len().max(1) as f64
+    };
+    let chains = build_chains(input, constrained, opts.corner_angle_deg, rest);
     let (lo, hi) = input.bounding_box();
     let diag = (hi - lo).length().max(1e-300);
     let start = remesh.positions.clone();
@@ -474,20 +520,12 @@ pub fn relax_holding(
     // --- iterations -------------------------------------------------------------------------
     let surface = Surface::new(input);
     let vn = input.vertex_normals();
-    let step = opts.step.clamp(0.0, 1.0);
-    let lw = opts.laplacian_weight.clamp(0.0, 1.0);
-    let sw = opts.spring_weight.clamp(0.0, 1.0);
-    let rest = {
-        let mut edges: Vec<(u32, u32)> =
-            undirected.keys().copied().filter(|e| e.0 != e.1).collect();
-        edges.sort_unstable();
-        let p = &remesh.positions;
-        edges
-            .iter()
-            .map(|&(a, b)| (p[a as usize] - p[b as usize]).length())
-            .sum::<f64>()
-            / edges.len().max(1) as f64
-    };
+    let pull = opts.pull.max(1e-9);
+    // held directions: far stronger than any vertex's corner-pair count
+    const HOLD: f64 = 1e9;
+    // Iterations per set of tangent frames (a factorization each): the planes turn as the
+    // vertices move, and a fit in stale planes stops short (docs/remesh.md).
+    const REFRAME: usize = 3;
     let face_normal_ref = |p: &[DVec3], f: &[u32]| {
         let c = f.iter().map(|&v| p[v as usize]).sum::<DVec3>() / f.len() as f64;
         let r = surface.project(c);
@@ -505,84 +543,68 @@ pub fn relax_holding(
         .map(|s| s.1)
         .fold(f64::INFINITY, f64::min)
         .max(opts.min_angle_deg);
-    for _ in 0..opts.iterations {
+    // tangent frames where the vertices are: chain tangent for sliding vertices
+    let frames_at = |pos: &[DVec3]| -> Vec<TangentFrame> {
+        (0..n)
+            .into_par_iter()
+            .map(|v| {
+                let here = surface.project(pos[v]);
+                let nrm = normal_at(input, &vn, here.face, here.bary);
+                let (a, b) = nrm.any_orthonormal_pair();
+                let fixed = TangentFrame {
+                    t: [a, b],
+                    pull: [HOLD; 2],
+                };
+                match kind[v] {
+                    Kind::Fixed => fixed,
+                    Kind::Free => TangentFrame {
+                        t: [a, b],
+                        pull: [pull; 2],
+                    },
+                    Kind::Slide(_) => {
+                        let [a, b] = chain_nbrs[v].unwrap_or([v as u32; 2]);
+                        let t = pos[b as usize] - pos[a as usize];
+                        let t = (t - nrm * t.dot(nrm)).normalize_or_zero();
+                        if t == DVec3::ZERO {
+                            return fixed;
+                        }
+                        TangentFrame {
+                            t: [t, nrm.cross(t)],
+                            pull: [pull, HOLD],
+                        }
+                    }
+                }
+            })
+            .collect()
+    };
+    let Some(mut system) = TangentSystem::new(faces, n) else {
+        return stats;
+    };
+    for it in 0..opts.iterations {
         if cancel() {
             break;
         }
+        if it % REFRAME == 0 && !system.reframe(faces, frames_at(&pos)) {
+            break;
+        }
         stats.iterations += 1;
+        let ideal = ideal_polygons(&pos, faces, system.frames(), rest, opts.size_weight);
+        let Some(fitted) = system.step(&pos, faces, &ideal) else {
+            break;
+        };
         let updates: Vec<(DVec3, u32)> = (0..n)
             .into_par_iter()
             .map(|v| {
-                let p = pos[v];
+                let (p, q) = (pos[v], fitted[v]);
                 match kind[v] {
                     Kind::Fixed => (p, seg[v]),
                     Kind::Slide(c) => {
-                        let [a, b] = chain_nbrs[v].unwrap_or([v as u32; 2]);
-                        let target = 0.5 * (pos[a as usize] + pos[b as usize]);
-                        let q = p + step * (target - p);
                         let ch = &chains.chains[c as usize];
                         let (np, s) = ch.project_near(q, seg[v] as usize, 2.0 * (q - p).length());
                         (np, s as u32)
                     }
-                    Kind::Free => {
-                        let here = surface.project(p);
-                        let nrm = normal_at(input, &vn, here.face, here.bary);
-                        let nb = &neighbours[v];
-                        if nb.is_empty() {
-                            return (p, 0);
-                        }
-                        let lap =
-                            nb.iter().map(|&w| pos[w as usize]).sum::<DVec3>() / nb.len() as f64;
-                        let mut ideal = DVec3::ZERO;
-                        let mut count = 0.0;
-                        for &fi in &vertex_faces[v] {
-                            let f = &faces[fi as usize];
-                            let m = f.len();
-                            let Some(k) = f.iter().position(|&x| x as usize == v) else {
-                                continue;
-                            };
-                            let a = pos[f[(k + 1) % m] as usize];
-                            let c = pos[f[(k + m - 1) % m] as usize];
-                            let t = match m {
-                                // equilateral apex over (a, c) on v's side
-                                3 => {
-                                    let d = c - a;
-                                    let side = nrm.cross(d).normalize_or_zero();
-                                    0.5 * (a + c) + side * (0.75f64.sqrt() * d.length())
-                                }
-                                // square over the diagonal (a, c)
-                                4 => {
-                                    let mid = 0.5 * (a + c);
-                                    mid + nrm.cross(0.5 * (c - a))
-                                }
-                                _ => continue,
-                            };
-                            ideal += t;
-                            count += 1.0;
-                        }
-                        let shape = if count > 0.0 {
-                            lw * lap + (1.0 - lw) * ideal / count
-                        } else {
-                            lap
-                        };
-                        let spring = p + nb
-                            .iter()
-                            .map(|&w| {
-                                let e = pos[w as usize] - p;
-                                let l = e.length();
-                                if l > 0.0 {
-                                    e * ((l - rest) / l)
-                                } else {
-                                    DVec3::ZERO
-                                }
-                            })
-                            .sum::<DVec3>()
-                            / nb.len() as f64;
-                        let target = (1.0 - sw) * shape + sw * spring;
-                        let mut d = target - p;
-                        d -= nrm * d.dot(nrm);
-                        (surface.closest(p + step * d).0, 0)
-                    }
+                    Kind::Free if q.is_finite() => (surface.closest(q).0, 0),
+                    Kind::Free => (p, 0),
                 }
             })
             .collect();
