@@ -25,6 +25,7 @@ mod snap;
 pub use purify::PurifyStats;
 mod quality;
 pub mod relax;
+mod rotate;
 pub mod square_fit;
 mod stripes;
 pub mod surface;
@@ -245,6 +246,9 @@ pub fn extract_until(
     }
     if opts.pure && symmetry != 2 {
         out.purified = purify::purify(&mut out, if symmetry == 4 { 4 } else { 3 });
+        if symmetry == 4 && out.faces.iter().all(|f| f.len() == 4) {
+            out.purified.rotated_edges = rotate::rotate_boundary_edges(&mut out);
+        }
     }
     if symmetry == 4 && opts.split_to_quads {
         out = split_to_quads(&out);

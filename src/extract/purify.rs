@@ -36,6 +36,8 @@ pub struct PurifyStats {
     pub chords: usize,
     /// Pairs of adjacent triangles joined into a quad (their common edge removed).
     pub joined_triangles: usize,
+    /// Interior edges rotated near the boundary to even out valences (`rotate.rs`; N = 4).
+    pub rotated_edges: usize,
 }
 
 /// Makes every face a quad (`sides = 4`) or a triangle (`sides = 3`).
