@@ -584,7 +584,7 @@ pub fn relax_holding(
         if cancel() {
             break;
         }
-        if it % REFRAME == 0 && !system.reframe(faces, frames_at(&pos)) {
+        if it % REFRAME == 0 && !system.reframe(faces, frames_at(&pos), &pos) {
             break;
         }
         stats.iterations += 1;

@@ -19,7 +19,7 @@
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
-use crate::sparse::{SparseBuilder, SparseMatrix, SpdSolver};
+use crate::sparse::{Analysis, SparseBuilder, SparseMatrix, SpdSolver};
 
 /// A vertex's two unit tangent directions and the pull μ along each.
 #[derive(Clone, Copy, Debug)]
@@ -168,11 +168,16 @@ impl TangentSystem {
         })
     }
 
-    /// Factorizes the system for new tangent frames (one per vertex). `false` if it is not
+    /// Factorizes the system for new tangent frames (one per vertex, at positions `pos`). `false` if it is not
     /// positive definite (e.g. a vertex in no face and without pull); steps then fail.
-    pub fn reframe(&mut self, faces: &[Vec<u32>], frames: Vec<TangentFrame>) -> bool {
+    pub fn reframe(
+        &mut self,
+        faces: &[Vec<u32>],
+        frames: Vec<TangentFrame>,
+        pos: &[DVec3],
+    ) -> bool {
         self.frames = Vec::new();
-        if frames.len() != self.degree.len() {
+        if frames.len() != self.degree.len() || pos.len() != frames.len() {
             return false;
         }
         // Σ T_vᵀ T_v = degree · I on the diagonal (orthonormal frames) plus the pull;
@@ -202,9 +207,14 @@ impl TangentSystem {
         };
         let ok = match &mut self.solver {
             Some(solver) => solver.refactor(&matrix).is_ok(),
-            None => SpdSolver::new(&matrix)
-                .map(|solver| self.solver = Some(solver))
-                .is_ok(),
+            // ordered by the vertices' positions (nested dissection on large remeshes)
+            None => {
+                let points: Vec<DVec3> = pos.iter().flat_map(|&p| [p, p]).collect();
+                Analysis::geometric(&matrix, &points)
+                    .and_then(|a| SpdSolver::with_analysis(a, &matrix))
+                    .map(|solver| self.solver = Some(solver))
+                    .is_ok()
+            }
         };
         if ok {
             self.frames = frames;
@@ -278,7 +288,7 @@ mod tests {
         let faces = vec![vec![0, 1, 2, 3]];
         let frames = flat_frames(4, 0.01);
         let mut sys = TangentSystem::new(&faces, 4).unwrap();
-        assert!(sys.reframe(&faces, frames.clone()));
+        assert!(sys.reframe(&faces, frames.clone(), &pos));
         for _ in 0..10 {
             let ideal = ideal_polygons(&pos, &faces, &frames, 1.0, 1.0);
             pos = sys.step(&pos, &faces, &ideal).unwrap();
@@ -307,7 +317,7 @@ mod tests {
         frames[1].pull = [0.01, 1e9];
         let ideal = ideal_polygons(&pos, &faces, &frames, 1.0, 1.0);
         let mut sys = TangentSystem::new(&faces, 4).unwrap();
-        assert!(sys.reframe(&faces, frames));
+        assert!(sys.reframe(&faces, frames, &pos));
         let out = sys.step(&pos, &faces, &ideal).unwrap();
         assert!(out[0].length() < 1e-6, "held vertex moved to {}", out[0]);
         assert!(out[1].y.abs() < 1e-6, "vertex 1 left its line: {}", out[1]);
