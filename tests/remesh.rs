@@ -104,6 +104,21 @@ fn default_remeshes_are_pure_and_keep_the_topology() {
                 far.len(),
                 r.purified
             );
+            // no boundary slivers in triangle remeshes (flat ears, short boundary edges:
+            // src/extract/ears.rs); before, the bunny had corners of 0° and 180°
+            if n == 6 {
+                let q = quadcover::extract::quality(r, &c.mesh);
+                println!(
+                    "{what}: corners {:.1}°–{:.1}°",
+                    q.min_angle_deg, q.max_angle_deg
+                );
+                assert!(
+                    q.min_angle_deg > 3.0 && q.max_angle_deg < 170.0,
+                    "{what}: corners {}°–{}°",
+                    q.min_angle_deg,
+                    q.max_angle_deg
+                );
+            }
             if r.purified.impure_faces == 0 && r.patched_places == 0 {
                 assert!(
                     far.is_empty(),

@@ -17,6 +17,7 @@
 //! - Faces are closed by walking the rotation system (next edge = clockwise-next slot at the end
 //!   point); boundary points get extra slots along the input boundary.
 
+mod ears;
 mod fill;
 mod lattice;
 mod poles;
@@ -248,6 +249,12 @@ pub fn extract_until(
         out.purified = purify::purify(&mut out, if symmetry == 4 { 4 } else { 3 });
         if symmetry == 4 && out.faces.iter().all(|f| f.len() == 4) {
             out.purified.rotated_edges = rotate::rotate_boundary_edges(&mut out);
+        }
+        if symmetry == 6 && out.faces.iter().all(|f| f.len() == 3) {
+            // collapses can leave new flat ears
+            out.purified.cut_ears = ears::cut_flat_ears(&mut out);
+            out.purified.collapsed_edges += ears::collapse_short_boundary_edges(&mut out);
+            out.purified.cut_ears += ears::cut_flat_ears(&mut out);
         }
     }
     if symmetry == 4 && opts.split_to_quads {

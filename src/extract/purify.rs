@@ -38,6 +38,8 @@ pub struct PurifyStats {
     pub joined_triangles: usize,
     /// Interior edges rotated near the boundary to even out valences (`rotate.rs`; N = 4).
     pub rotated_edges: usize,
+    /// Flat boundary ears cut off (`ears.rs`; N = 6).
+    pub cut_ears: usize,
 }
 
 /// Makes every face a quad (`sides = 4`) or a triangle (`sides = 3`).
