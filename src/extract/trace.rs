@@ -368,8 +368,13 @@ impl<'p, 'm> Grid<'p, 'm> {
                 let i0 = fan.iter().position(|&h| h / 3 == f)?;
                 let m = fan.len();
                 let closed = !mesh.is_boundary_vertex(v);
-                let mut best: Option<usize> = None;
-                for dir in [1i64, -1] {
+                // Walk the fan both ways and take the nearest slot leaving in w (transported):
+                // around a vertex of negative index the fan turns more than a full turn, so the
+                // same direction comes again farther on, and the first match one way can be a
+                // whole turn farther than the match the other way (two singular grid points
+                // one lattice step apart traced into each other's wrong slots).
+                let walk = |dir: i64| -> Vec<(usize, [i64; 2])> {
+                    let mut out = Vec::new();
                     let mut w2 = w;
                     let mut i = i0;
                     for _ in 1..m.max(2) {
@@ -404,19 +409,16 @@ impl<'p, 'm> Grid<'p, 'm> {
                             }
                         };
                         i = next_i;
-                        if let Some(j) = find(fan[i] / 3, w2) {
-                            best = Some(j);
-                            break;
-                        }
-                        if best.is_some() {
-                            break;
-                        }
+                        out.push((fan[i] / 3, w2));
                     }
-                    if best.is_some() {
-                        break;
-                    }
-                }
-                best
+                    out
+                };
+                let (ccw, cw) = (walk(1), walk(-1));
+                (0..ccw.len().max(cw.len())).find_map(|k| {
+                    ccw.get(k)
+                        .and_then(|&(f, w2)| find(f, w2))
+                        .or_else(|| cw.get(k).and_then(|&(f, w2)| find(f, w2)))
+                })
             }
         }
     }
