@@ -8,14 +8,15 @@
 
 #[path = "support/meshes.rs"]
 mod meshes;
-
-use std::collections::HashMap;
+#[path = "support/remesh_checks.rs"]
+mod remesh_checks;
 
 use glam::DVec3;
 use quadcover::extract::relax::{RelaxOptions, relax};
 use quadcover::extract::surface::Surface;
 use quadcover::extract::{ExtractOptions, Origin, Remesh, extract, quality};
 use quadcover::mesh::{TriMesh, generate};
+use remesh_checks::boundary_vertices;
 
 fn shared(name: &str) -> Option<TriMesh> {
     meshes::load_shared(name)
@@ -61,45 +62,13 @@ fn newell(p: &[DVec3], f: &[u32]) -> DVec3 {
         .sum()
 }
 
-fn remesh_boundary(r: &Remesh) -> Vec<bool> {
-    let mut count: HashMap<(u32, u32), usize> = HashMap::new();
-    for f in &r.faces {
-        for k in 0..f.len() {
-            let (a, b) = (f[k], f[(k + 1) % f.len()]);
-            *count.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
-    let mut out = vec![false; r.positions.len()];
-    for (&(a, b), &c) in &count {
-        if c == 1 {
-            out[a as usize] = true;
-            out[b as usize] = true;
-        }
-    }
-    out
-}
-
 /// Remesh vertices at input boundary vertices where the boundary turns by more than 30°, both
 /// between the vertex's neighbours and between the points a mean remesh edge length away along
 /// the boundary (or where it ends).
 fn boundary_corners(mesh: &TriMesh, r: &Remesh) -> Vec<usize> {
-    boundary_corners_at(mesh, r, mean_edge_length(r))
-}
-
-fn mean_edge_length(r: &Remesh) -> f64 {
-    let mut sum = 0.0;
-    let mut count = 0;
-    let mut seen = std::collections::HashSet::new();
-    for f in &r.faces {
-        for k in 0..f.len() {
-            let (a, b) = (f[k], f[(k + 1) % f.len()]);
-            if a != b && seen.insert((a.min(b), a.max(b))) {
-                sum += (r.positions[a as usize] - r.positions[b as usize]).length();
-                count += 1;
-            }
-        }
-    }
-    sum / count.max(1) as f64
+    let lengths = quadcover::extract::edge_lengths(r);
+    let mean = lengths.iter().sum::<f64>() / lengths.len().max(1) as f64;
+    boundary_corners_at(mesh, r, mean)
 }
 
 /// [`boundary_corners`] with the turn also measured `scale` away (0: between the neighbours
@@ -194,7 +163,7 @@ fn violations(mesh: &TriMesh, surface: &Surface, before: &Remesh, after: &Remesh
             .map(|&(a, b)| point_segment(p, a, b))
             .fold(f64::INFINITY, f64::min)
     };
-    let bd = remesh_boundary(before);
+    let bd = boundary_vertices(before);
     let left: Vec<usize> = (0..before.positions.len())
         .filter(|&v| bd[v] && to_boundary(before.positions[v]) <= tol)
         .filter(|&v| to_boundary(after.positions[v]) > tol)
@@ -424,7 +393,7 @@ fn checks_catch_broken_results() {
     assert!(violations(&mesh, &surface, &r, &r).is_empty());
     let corners = boundary_corners(&mesh, &r);
     assert_eq!(corners.len(), 4, "the grid's four corners");
-    let bd = remesh_boundary(&r);
+    let bd = boundary_vertices(&r);
     let interior = (0..r.positions.len()).find(|&v| !bd[v]).unwrap();
     let side = (0..r.positions.len())
         .find(|&v| bd[v] && !corners.contains(&v))
@@ -505,7 +474,7 @@ fn perturbed_grid_relaxes_to_regular() {
             .wrapping_add(1442695040888963407);
         (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
     };
-    let bd = remesh_boundary(&clean);
+    let bd = boundary_vertices(&clean);
     for v in 0..noisy.positions.len() {
         let p = &mut noisy.positions[v];
         let on_x = p.x == 0.0 || p.x == 1.0;
@@ -609,7 +578,7 @@ fn constraint_chain_is_kept() {
             .wrapping_add(1442695040888963407);
         (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
     };
-    let bd = remesh_boundary(&r);
+    let bd = boundary_vertices(&r);
     let on_line: Vec<bool> = r
         .positions
         .iter()

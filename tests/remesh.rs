@@ -8,11 +8,11 @@ mod meshes;
 #[path = "support/remesh_checks.rs"]
 mod remesh_checks;
 
-use remesh_checks::{assert_manifold, boundary_loops};
+use remesh_checks::{assert_manifold, boundary_loops, boundary_vertices};
 
 use glam::DVec3;
 use quadcover::edit::{Settings, never};
-use quadcover::extract::{ExtractOptions, Remesh, extract, irregular_vertices};
+use quadcover::extract::{ExtractOptions, Remesh, corner_angles_deg, extract, irregular_vertices};
 use quadcover::mesh::TriMesh;
 
 struct Case {
@@ -132,36 +132,18 @@ fn default_remeshes_are_pure_and_keep_the_topology() {
 /// The smallest and largest corner angle (degrees) of the faces of `r`, or of those with a
 /// vertex on the boundary only.
 fn corner_range(r: &Remesh, boundary_only: bool) -> (f64, f64) {
-    let mut count: std::collections::HashMap<(u32, u32), usize> = Default::default();
-    for f in &r.faces {
-        for k in 0..f.len() {
-            let (a, b) = (f[k], f[(k + 1) % f.len()]);
-            *count.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
-    let mut on_boundary = vec![false; r.positions.len()];
-    for (&(a, b), &c) in &count {
-        if c == 1 {
-            on_boundary[a as usize] = true;
-            on_boundary[b as usize] = true;
-        }
-    }
-    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
-    for f in &r.faces {
-        if boundary_only && !f.iter().any(|&v| on_boundary[v as usize]) {
-            continue;
-        }
-        let m = f.len();
-        for k in 0..m {
-            let p = r.positions[f[k] as usize];
-            let a = r.positions[f[(k + 1) % m] as usize] - p;
-            let b = r.positions[f[(k + m - 1) % m] as usize] - p;
-            let angle = a.angle_between(b).to_degrees();
-            lo = lo.min(angle);
-            hi = hi.max(angle);
-        }
-    }
-    (lo, hi)
+    let on_boundary = boundary_vertices(r);
+    let part = Remesh {
+        positions: r.positions.clone(),
+        faces: (r.faces.iter())
+            .filter(|f| !boundary_only || f.iter().any(|&v| on_boundary[v as usize]))
+            .cloned()
+            .collect(),
+        ..Default::default()
+    };
+    corner_angles_deg(&part)
+        .into_iter()
+        .fold((f64::INFINITY, 0.0), |(lo, hi), a| (lo.min(a), hi.max(a)))
 }
 
 fn mean_edge(r: &Remesh) -> f64 {

@@ -15,6 +15,8 @@
 
 use std::collections::{HashMap, HashSet};
 
+use super::purify::{compact, drop_faces};
+use super::quality::{edge_incidence, edge_lengths};
 use super::{Origin, Remesh};
 
 /// The middle corner (degrees) from which an ear counts as flat.
@@ -31,16 +33,7 @@ pub fn cut_flat_ears(remesh: &mut Remesh) -> usize {
     }
     let mut cut = 0;
     loop {
-        // undirected edge → faces using it; vertex → faces
-        let mut edge_faces: HashMap<(u32, u32), u32> = HashMap::new();
-        let mut vertex_faces = vec![0u32; n];
-        for f in &remesh.faces {
-            for k in 0..f.len() {
-                let (a, b) = (f[k], f[(k + 1) % f.len()]);
-                *edge_faces.entry((a.min(b), a.max(b))).or_default() += 1;
-                vertex_faces[a as usize] += 1;
-            }
-        }
+        let (edge_faces, valence, _) = edge_incidence(remesh);
         let count = |a: u32, b: u32| edge_faces.get(&(a.min(b), a.max(b))).copied().unwrap_or(0);
         let pos = &remesh.positions;
         let mut gone = vec![false; remesh.faces.len()];
@@ -54,7 +47,8 @@ pub fn cut_flat_ears(remesh: &mut Remesh) -> usize {
                 let middle = (pos[a as usize] - pos[v as usize])
                     .angle_between(pos[b as usize] - pos[v as usize])
                     .to_degrees();
-                let ear = vertex_faces[v as usize] == 1
+                // v's only edges are the two boundary edges: it is in this triangle only
+                let ear = valence[v as usize] == 2
                     && count(a, v) == 1
                     && count(v, b) == 1
                     && count(a, b) == 2
@@ -75,14 +69,10 @@ pub fn cut_flat_ears(remesh: &mut Remesh) -> usize {
             break;
         }
         cut += now;
-        let mut i = 0;
-        remesh.faces.retain(|_| {
-            i += 1;
-            !gone[i - 1]
-        });
+        drop_faces(remesh, &gone);
     }
     if cut > 0 {
-        super::purify::compact(remesh);
+        compact(remesh);
     }
     cut
 }
@@ -97,20 +87,8 @@ pub fn collapse_short_boundary_edges(remesh: &mut Remesh) -> usize {
     {
         return 0;
     }
-    let mean = {
-        let mut seen = HashSet::new();
-        let (mut sum, mut count) = (0.0, 0usize);
-        for f in &remesh.faces {
-            for k in 0..3 {
-                let (a, b) = (f[k], f[(k + 1) % 3]);
-                if seen.insert((a.min(b), a.max(b))) {
-                    sum += (remesh.positions[a as usize] - remesh.positions[b as usize]).length();
-                    count += 1;
-                }
-            }
-        }
-        sum / count.max(1) as f64
-    };
+    let lengths = edge_lengths(remesh);
+    let mean = lengths.iter().sum::<f64>() / lengths.len().max(1) as f64;
     let limit = SHORT_EDGE * mean;
     let mut collapsed = 0;
     loop {
@@ -168,18 +146,14 @@ pub fn collapse_short_boundary_edges(remesh: &mut Remesh) -> usize {
             into[drop as usize] = keep;
             gone[fi] = true;
         }
-        let mut i = 0;
-        remesh.faces.retain(|_| {
-            i += 1;
-            !gone[i - 1]
-        });
+        drop_faces(remesh, &gone);
         for v in remesh.faces.iter_mut().flatten() {
             *v = into[*v as usize];
         }
         collapsed += merge.len();
     }
     if collapsed > 0 {
-        super::purify::compact(remesh);
+        compact(remesh);
     }
     collapsed
 }

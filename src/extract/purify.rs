@@ -181,11 +181,7 @@ fn collapse_or_extend_boundary_odd_faces(remesh: &mut Remesh, stats: &mut Purify
             progress = true;
         }
         if !merge.is_empty() {
-            let mut fi = 0;
-            remesh.faces.retain(|_| {
-                fi += 1;
-                !removed[fi - 1]
-            });
+            drop_faces(remesh, &removed);
             remap_faces(&mut remesh.faces, |v| Some(*merge.get(&v).unwrap_or(&v)));
         }
         if !progress || !deferred {
@@ -295,11 +291,7 @@ fn join_triangle_pairs(remesh: &mut Remesh, stats: &mut PurifyStats) {
         gone[g] = true;
         stats.joined_triangles += 1;
     }
-    let mut i = 0;
-    remesh.faces.retain(|_| {
-        i += 1;
-        !gone[i - 1]
-    });
+    drop_faces(remesh, &gone);
 }
 
 /// Step 2b: joins odd faces pairwise, or to the boundary, through the dual graph.
@@ -478,6 +470,15 @@ fn split_faces(remesh: &mut Remesh, sides: usize, stats: &mut PurifyStats) {
         out.push(poly);
     }
     remesh.faces = out;
+}
+
+/// Drops the faces marked in `gone` (one flag per face), keeping the others' order.
+pub(super) fn drop_faces(remesh: &mut Remesh, gone: &[bool]) {
+    let mut i = 0;
+    remesh.faces.retain(|_| {
+        i += 1;
+        !gone[i - 1]
+    });
 }
 
 /// Drops vertices no face or polyline uses any more (collapsed ones), renumbering the rest.

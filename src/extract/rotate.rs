@@ -16,6 +16,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use super::Remesh;
+use super::quality::edge_incidence;
 
 /// Passes over the candidate edges at most (each pass that rotates nothing ends the loop).
 const MAX_PASSES: usize = 8;
@@ -24,32 +25,18 @@ const MAX_PASSES: usize = 8;
 /// are left alone) and returns how many were rotated.
 pub fn rotate_boundary_edges(remesh: &mut Remesh) -> usize {
     let n = remesh.positions.len();
-    let faces = &mut remesh.faces;
-    let pos = &remesh.positions;
-    if faces.iter().flatten().any(|&v| v as usize >= n) {
+    if remesh.faces.iter().flatten().any(|&v| v as usize >= n) {
         return 0;
     }
+    let (_, valence, boundary) = edge_incidence(remesh);
+    let mut valence: Vec<i64> = valence.into_iter().map(|k| k as i64).collect();
+    let faces = &mut remesh.faces;
+    let pos = &remesh.positions;
     // directed edges → (face, corner)
     let mut half: HashMap<(u32, u32), (usize, usize)> = HashMap::new();
     for (fi, f) in faces.iter().enumerate() {
         for k in 0..f.len() {
             half.insert((f[k], f[(k + 1) % f.len()]), (fi, k));
-        }
-    }
-    let mut valence = vec![0i64; n];
-    let mut boundary = vec![false; n];
-    for &(a, b) in half.keys() {
-        if a == b {
-            continue;
-        }
-        if !half.contains_key(&(b, a)) {
-            boundary[a as usize] = true;
-            boundary[b as usize] = true;
-            valence[a as usize] += 1;
-            valence[b as usize] += 1;
-        } else if a < b {
-            valence[a as usize] += 1;
-            valence[b as usize] += 1;
         }
     }
     // boundary vertices' angles on the surface: the sum of their corners (rotations keep it)

@@ -62,6 +62,25 @@ pub fn assert_manifold(r: &Remesh, what: &str) {
     }
 }
 
+/// Per vertex: whether it lies on an edge used by one face only.
+pub fn boundary_vertices(r: &Remesh) -> Vec<bool> {
+    let mut count: HashMap<(u32, u32), usize> = HashMap::new();
+    for f in &r.faces {
+        for k in 0..f.len() {
+            let (a, b) = (f[k], f[(k + 1) % f.len()]);
+            *count.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    let mut out = vec![false; r.positions.len()];
+    for (&(a, b), &c) in &count {
+        if c == 1 {
+            out[a as usize] = true;
+            out[b as usize] = true;
+        }
+    }
+    out
+}
+
 /// Boundary loops of a polygon mesh: the cycles of directed edges without a twin.
 pub fn boundary_loops(r: &Remesh) -> usize {
     let directed: HashSet<(u32, u32)> = r
