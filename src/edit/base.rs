@@ -102,6 +102,21 @@ pub struct Solved {
     pub e_align: f64,
     /// (stage, seconds).
     pub timings: Vec<(String, f64)>,
+    /// How QuadCover's systems were had.
+    pub reuse: Reuse,
+}
+
+/// How a solve had QuadCover's two systems (local step, global step).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reuse {
+    /// The base's own (the initial state's matchings).
+    Base,
+    /// Updated from the base's factors: per system the rows that changed (`None`: too many,
+    /// factored afresh; `Some(0)`: the matrix was the base's).
+    Updated {
+        local: Option<usize>,
+        global: Option<usize>,
+    },
 }
 
 /// What a move from `from` to `to` would do (for the editor's live preview).
@@ -112,6 +127,22 @@ pub struct MovePreview {
     /// The index numerator k at `to` afterwards (`None`: the singularity leaves through the
     /// boundary), or why the move is refused.
     pub result: Result<Option<i32>, String>,
+}
+
+/// A state's QuadCover solver: the base's, or an update of it.
+enum Solver {
+    Base(Arc<QuadCover>),
+    Updated(Box<QuadCover>),
+}
+
+impl std::ops::Deref for Solver {
+    type Target = QuadCover;
+    fn deref(&self) -> &QuadCover {
+        match self {
+            Solver::Base(q) => q,
+            Solver::Updated(q) => q,
+        }
+    }
 }
 
 /// Everything that depends on (mesh, settings) only.
@@ -126,6 +157,10 @@ pub struct Base {
     defects: Arc<Vec<f64>>,
     analysis: Arc<ParamAnalysis>,
     initial: EditState,
+    /// QuadCover for the initial state's matchings, kept for updates: every state's solver is
+    /// this one updated (`QuadCover::updated`), so it is the same whether a state was reached
+    /// by editing or by replaying a project. Made by the first solve.
+    quadcover: std::sync::OnceLock<Result<Arc<QuadCover>, String>>,
 }
 
 impl std::fmt::Debug for Base {
@@ -220,6 +255,7 @@ impl Base {
             defects: Arc::new(defects),
             analysis: Arc::new(analysis),
             initial,
+            quadcover: Default::default(),
         })
     }
 
@@ -242,6 +278,7 @@ impl Base {
             defects: self.defects.clone(),
             analysis: self.analysis.clone(),
             initial: self.initial.clone(),
+            quadcover: Default::default(),
         }))
     }
 
@@ -602,27 +639,9 @@ impl Base {
         .map_err(|e| EditError::Param(e.to_string()))
     }
 
-    /// The field and the parameterization of a state (a pure function of it).
-    pub fn solve(&self, state: &EditState, cancel: Cancel) -> Result<Solved, EditError> {
-        let mut timings = Vec::new();
-        let mut clock = Instant::now();
-        let mut lap = |name: &str, timings: &mut Vec<(String, f64)>| {
-            timings.push((name.to_string(), clock.elapsed().as_secs_f64()));
-            clock = Instant::now();
-        };
-        let n = self.settings.symmetry;
-        let theta = self.angles(state)?;
-        lap("field re-solve", &mut timings);
-        if cancel() {
-            return Err(EditError::Cancelled);
-        }
-        let field = FrameField {
-            symmetry: self.settings.symmetry(),
-            frames: self.frames(&theta),
-            matchings: reduce_matchings(&self.tr, &state.turns, n),
-        };
-        let indices = indices_from_angles(&self.mesh, &self.tr, &theta, &field.matchings, n);
-        let step = std::f64::consts::TAU / n as f64;
+    /// E_smooth and E_align of a state's angles.
+    fn energies_of(&self, state: &EditState, theta: &[f64]) -> (f64, f64) {
+        let step = std::f64::consts::TAU / self.settings.symmetry as f64;
         let base_field = self.field_of(state);
         let mut omega = base_field.omega.clone();
         let released_by_cancellation = base_field
@@ -637,27 +656,108 @@ impl Base {
             .system
             .as_ref()
             .map(|s| s.target().to_vec())
-            .unwrap_or_else(|| theta.clone());
-        let (e_smooth, e_align) = energies(&self.tr, step, &theta, &state.turns, &omega, &target);
-        lap("indices", &mut timings);
-        let qc = QuadCover::with_analysis(
-            &self.mesh,
-            n as usize,
-            &field.matchings,
-            self.settings.param_options(),
-            Some(&self.analysis),
-        )
-        .map_err(|e| EditError::Param(e.to_string()))?;
-        lap("QuadCover factorizations", &mut timings);
+            .unwrap_or_else(|| theta.to_vec());
+        energies(&self.tr, step, theta, &state.turns, &omega, &target)
+    }
+
+    /// QuadCover for a state's matchings: the initial state's solver (made by the first call,
+    /// kept for updates), or that one updated for the state's matchings
+    /// ([`QuadCover::updated`]). Every state's solver comes from the same base, so a state
+    /// reached by editing and the same state replayed from a project solve alike.
+    fn quadcover_for(&self, state: &EditState, matchings: &[i32]) -> Result<Solver, EditError> {
+        let n = self.settings.symmetry;
+        let base = self
+            .quadcover
+            .get_or_init(|| {
+                QuadCover::updatable(
+                    &self.mesh,
+                    n as usize,
+                    &reduce_matchings(&self.tr, &self.initial.turns, n),
+                    self.settings.param_options(),
+                    Some(&self.analysis),
+                )
+                .map(Arc::new)
+                .map_err(|e| e.to_string())
+            })
+            .clone()
+            .map_err(EditError::Param)?;
+        if state.turns == self.initial.turns {
+            return Ok(Solver::Base(base));
+        }
+        base.updated(&self.mesh, matchings)
+            .map(|q| Solver::Updated(Box::new(q)))
+            .map_err(|e| EditError::Param(e.to_string()))
+    }
+
+    /// The field and the parameterization of a state (a pure function of it).
+    pub fn solve(&self, state: &EditState, cancel: Cancel) -> Result<Solved, EditError> {
+        self.solve_previewing(state, cancel, &crate::param::no_preview)
+    }
+
+    /// [`Base::solve`] that hands the global step's map to `preview` as soon as it is known,
+    /// when the injectivity repair is about to change it (`QuadCover::solve_previewing`): the
+    /// editor shows the new tiling while the folds are repaired.
+    pub fn solve_previewing(
+        &self,
+        state: &EditState,
+        cancel: Cancel,
+        preview: crate::param::PreviewSink<'_>,
+    ) -> Result<Solved, EditError> {
+        let mut timings = Vec::new();
+        let mut clock = Instant::now();
+        let mut lap = |name: &str, timings: &mut Vec<(String, f64)>| {
+            timings.push((name.to_string(), clock.elapsed().as_secs_f64()));
+            clock = Instant::now();
+        };
+        let n = self.settings.symmetry;
+        let matchings = reduce_matchings(&self.tr, &state.turns, n);
+        // QuadCover depends on the matchings only: its systems are updated (or the base's are
+        // made) on one core while the field is re-solved on the other.
+        let (field_part, qc_part) = rayon::join(
+            || {
+                let clock = Instant::now();
+                let theta = self.angles(state)?;
+                let resolve = clock.elapsed().as_secs_f64();
+                let field = FrameField {
+                    symmetry: self.settings.symmetry(),
+                    frames: self.frames(&theta),
+                    matchings: matchings.clone(),
+                };
+                let indices =
+                    indices_from_angles(&self.mesh, &self.tr, &theta, &field.matchings, n);
+                let (e_smooth, e_align) = self.energies_of(state, &theta);
+                let rest = clock.elapsed().as_secs_f64() - resolve;
+                Ok::<_, EditError>((theta, field, indices, e_smooth, e_align, resolve, rest))
+            },
+            || {
+                let clock = Instant::now();
+                let qc = self.quadcover_for(state, &matchings)?;
+                Ok::<_, EditError>((qc, clock.elapsed().as_secs_f64()))
+            },
+        );
+        let (theta, field, indices, e_smooth, e_align, resolve, rest) = field_part?;
+        let (qc, qc_seconds) = qc_part?;
+        let reuse = match &qc {
+            Solver::Base(_) => Reuse::Base,
+            Solver::Updated(q) => {
+                let (local, global) = q.updated_rows();
+                Reuse::Updated { local, global }
+            }
+        };
+        timings.push(("field re-solve".to_string(), resolve));
+        timings.push(("indices".to_string(), rest));
+        timings.push(("QuadCover factorizations (beside)".to_string(), qc_seconds));
+        lap("field and QuadCover, side by side", &mut timings);
         if cancel() {
             return Err(EditError::Cancelled);
         }
         let param = qc
-            .solve_with_curves_until(
+            .solve_previewing(
                 &self.mesh,
                 &field.frames,
                 &self.constraint_curves(state),
                 cancel,
+                preview,
             )
             .map_err(|e| match e {
                 ParamError::Contradiction { curves, message } => {
@@ -675,6 +775,7 @@ impl Base {
             e_smooth,
             e_align,
             timings,
+            reuse,
         })
     }
 }

@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 
 pub use crate::constraint::{Curve, CurveKind, CurveOrigin};
 
-pub use base::{Base, EditState, MovePreview, Replay, Skipped, Solved};
+pub use base::{Base, EditState, MovePreview, Replay, Reuse, Skipped, Solved};
 pub use project::{MeshRef, Project, ProjectError, Settings};
 
 /// One user edit, as written in a project file: a JSON object tagged by `op`.

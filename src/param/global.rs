@@ -10,7 +10,7 @@ use crate::mesh::TriMesh;
 use super::ParamError;
 use super::cut::{CutGraph, NONE, step};
 use super::rot::{Aff, ID, Lattice, Lin, M2, Rots, apply, inverse, mul, sub, transpose};
-use super::system::{BlockBuilder, BlockSolver};
+use super::system::{BlockBuilder, BlockSolver, Factoring};
 use super::untangle::MapSpace;
 use crate::sparse::{Analysis, SparseBuilder};
 
@@ -31,12 +31,15 @@ pub(crate) fn stiffness(mesh: &TriMesh, f: usize) -> [[f64; 3]; 3] {
 
 impl GlobalSystem {
     /// The system's sparsity pattern depends on the mesh only (see [`Self::pattern`]), so an
-    /// analysis computed beforehand can be passed in.
+    /// analysis computed beforehand can be passed in. `gauge`: the cut graph of a system this
+    /// one updates; each vertex's unknown is then written in the frame that one used, so that
+    /// the two matrices differ only where the matchings do (see below).
     pub fn new(
         mesh: &TriMesh,
         cut: &CutGraph,
         rots: &Rots,
-        analysis: Option<&Analysis>,
+        how: Factoring,
+        gauge: Option<&CutGraph>,
     ) -> Result<GlobalSystem, ParamError> {
         let nc = 3 * mesh.n_faces();
         let mut corner_var = vec![NONE; nc];
@@ -86,14 +89,23 @@ impl GlobalSystem {
             } else {
                 v as u32
             };
+            // x_v is written in the disk frame of its first face, R^{-ρ} of the face frame
+            // (cut.rs). Another cut graph turns that frame by the difference of the ρ there;
+            // turning x_v back by it makes every coupling R^{rot_b - rot_a} the same as with
+            // that cut graph wherever the matchings around both vertices are (the ρ of the
+            // face itself cancels in the difference).
+            let shift = gauge.map_or(0, |g| {
+                let f0 = mesh.face_of(h0);
+                g.rho[f0] as i64 - cut.rho[f0] as i64
+            });
             for (h, a) in fan {
                 corner_var[h] = var;
-                corner_rot[h] = a.rot;
+                corner_rot[h] = rots.norm(a.rot as i64 + shift);
                 corner_lin[h] = a.lin;
             }
         }
         let nv = mesh.n_vertices();
-        let mut b = BlockBuilder::new(rots.n == 2, nv, nv + 9 * mesh.n_faces());
+        let mut b = BlockBuilder::new(rots.n == 2, nv, nv + 9 * mesh.n_faces(), &how);
         for v in 0..nv {
             b.add(v, v, if removed[v] { 1.0 } else { 0.0 }, &ID);
         }
@@ -114,12 +126,13 @@ impl GlobalSystem {
                 }
             }
         }
+        let solver = b.factor_by(how)?;
         Ok(GlobalSystem {
             corner_var,
             corner_rot,
             corner_lin,
             n_loops: cut.generators.len(),
-            solver: b.factor(analysis)?,
+            solver,
         })
     }
 
@@ -133,6 +146,11 @@ impl GlobalSystem {
             basis: vec![ID; n_vertices],
             free: vec![[true, true]; n_vertices],
         }
+    }
+
+    /// The factored system (a base for updates).
+    pub fn solver(&self) -> &BlockSolver {
+        &self.solver
     }
 
     /// The factored system's analysis (its pattern is the mesh's vertex adjacency).

@@ -9,7 +9,7 @@ use crate::mesh::TriMesh;
 use super::ParamError;
 use super::cut::{CutGraph, NONE};
 use super::rot::{ID, Rots, apply, transpose};
-use super::system::{BlockBuilder, BlockSolver};
+use super::system::{BlockBuilder, BlockSolver, Factoring};
 use crate::sparse::{Analysis, SparseBuilder};
 
 /// The factored non-conforming system; depends on geometry and matchings only.
@@ -53,7 +53,7 @@ impl LocalSystem {
         mesh: &TriMesh,
         cut: &CutGraph,
         rots: &Rots,
-        analysis: Option<&Analysis>,
+        how: Factoring,
     ) -> Result<LocalSystem, ParamError> {
         let (edge_var, n) = interior_edge_numbering(mesh);
         // Constants on the covering are in the kernel only on closed components whose matchings
@@ -70,7 +70,7 @@ impl LocalSystem {
                 pinned[edge_var[e] as usize] = true;
             }
         }
-        let mut b = BlockBuilder::new(rots.n == 2, n, n + 9 * mesh.n_faces());
+        let mut b = BlockBuilder::new(rots.n == 2, n, n + 9 * mesh.n_faces(), &how);
         for v in 0..n {
             b.add(v, v, if pinned[v] { 1.0 } else { 0.0 }, &ID);
         }
@@ -106,8 +106,13 @@ impl LocalSystem {
         Ok(LocalSystem {
             edge_var,
             pinned,
-            solver: b.factor(analysis)?,
+            solver: b.factor_by(how)?,
         })
+    }
+
+    /// The factored system (a base for updates).
+    pub fn solver(&self) -> &BlockSolver {
+        &self.solver
     }
 
     /// The pattern of the system: interior edges sharing a face, plus the diagonal.

@@ -58,6 +58,7 @@ use cut::CutGraph;
 use global::GlobalSystem;
 use local::LocalSystem;
 use rot::Rots;
+use system::Factoring;
 
 #[derive(Debug, Error)]
 pub enum ParamError {
@@ -76,6 +77,14 @@ pub enum ParamError {
 
 /// A cancel check polled by long steps (the repair): true = stop.
 pub type CancelCheck<'a> = &'a (dyn Fn() -> bool + Sync);
+
+/// Receives the global step's map (per-corner UVs, seamless, singularities and gaps on the
+/// lattice) when the injectivity repair is about to change it: the editor shows it while the
+/// repair runs.
+pub type PreviewSink<'a> = &'a (dyn Fn(&[[f64; 2]]) + Sync);
+
+/// A [`PreviewSink`] that ignores the preview.
+pub fn no_preview(_: &[[f64; 2]]) {}
 
 /// How loop gaps are rounded to the lattice.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
@@ -313,6 +322,17 @@ const REROUND_GAPS: usize = 8;
 const REROUND_TRIES: usize = 3;
 const REROUND_ROUNDS: usize = 6;
 
+/// Changed rows up to which [`QuadCover::updated`] updates a system instead of refactoring it
+/// (each costs two solves with the base's factor; measured in docs/CONTRACTS.md).
+pub const UPDATE_MAX_ROWS: usize = 48;
+
+/// How [`QuadCover::build`] gets its systems: factored (with analyses computed beforehand,
+/// keeping the matrices for updates or not), or updated from a base solver.
+enum Build<'a> {
+    Fresh(Option<&'a ParamAnalysis>, bool),
+    Update(&'a QuadCover),
+}
+
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
@@ -337,6 +357,66 @@ impl QuadCover {
         matchings: &[i32],
         opts: ParamOptions,
         analysis: Option<&ParamAnalysis>,
+    ) -> Result<QuadCover, ParamError> {
+        Self::build(
+            mesh,
+            symmetry,
+            matchings,
+            opts,
+            Build::Fresh(analysis, false),
+        )
+    }
+
+    /// [`QuadCover::with_analysis`] that keeps its assembled systems, as a base that solvers
+    /// for other matchings on the same mesh update instead of refactoring
+    /// ([`QuadCover::updated`]): the editor's base state.
+    pub fn updatable(
+        mesh: &TriMesh,
+        symmetry: usize,
+        matchings: &[i32],
+        opts: ParamOptions,
+        analysis: Option<&ParamAnalysis>,
+    ) -> Result<QuadCover, ParamError> {
+        Self::build(
+            mesh,
+            symmetry,
+            matchings,
+            opts,
+            Build::Fresh(analysis, true),
+        )
+    }
+
+    /// The solver for other matchings on this one's mesh (same symmetry and options), from
+    /// this one's factors when the systems differ in a few rows: a moved singularity changes
+    /// the matchings only along its path, and with each vertex's unknown written in this
+    /// solver's frames (see `GlobalSystem::new`) the systems change only there. Factored afresh
+    /// (with this one's analyses) when more than [`UPDATE_MAX_ROWS`] rows changed. This must
+    /// come from [`QuadCover::updatable`]. The result is a function of the two sets of
+    /// matchings only, so a replay reproduces it bit for bit.
+    pub fn updated(&self, mesh: &TriMesh, matchings: &[i32]) -> Result<QuadCover, ParamError> {
+        Self::build(
+            mesh,
+            self.symmetry,
+            matchings,
+            self.opts.clone(),
+            Build::Update(self),
+        )
+    }
+
+    /// How many rows of the local and the global system an update changed (`None`: factored).
+    pub fn updated_rows(&self) -> (Option<usize>, Option<usize>) {
+        (
+            self.local.solver().updated_rows(),
+            self.global.solver().updated_rows(),
+        )
+    }
+
+    fn build(
+        mesh: &TriMesh,
+        symmetry: usize,
+        matchings: &[i32],
+        opts: ParamOptions,
+        how: Build,
     ) -> Result<QuadCover, ParamError> {
         if ![2, 4, 6].contains(&symmetry) {
             return Err(ParamError::InvalidInput(format!(
@@ -367,17 +447,42 @@ impl QuadCover {
         let t = Instant::now();
         let cut = CutGraph::new(mesh, &rots, matchings);
         let cut_ms = ms(t);
+        let (local_how, global_how, gauge) = match how {
+            Build::Fresh(analysis, keep) => (
+                Factoring::Fresh {
+                    analysis: analysis.map(|a| &a.local),
+                    keep,
+                },
+                Factoring::Fresh {
+                    analysis: analysis.map(|a| &a.global),
+                    keep,
+                },
+                None,
+            ),
+            Build::Update(base) => (
+                Factoring::Update {
+                    base: base.local.solver(),
+                    max_rows: UPDATE_MAX_ROWS,
+                },
+                Factoring::Update {
+                    base: base.global.solver(),
+                    max_rows: UPDATE_MAX_ROWS,
+                },
+                Some(&base.cut),
+            ),
+        };
         // The two systems are independent: factored side by side on two cores.
         let ((local, local_ms), (global, global_ms)) = rayon::join(
             || {
                 let t = Instant::now();
-                let a = analysis.map(|a| &a.local);
-                (LocalSystem::new(mesh, &cut, &rots, a), ms(t))
+                (LocalSystem::new(mesh, &cut, &rots, local_how), ms(t))
             },
             || {
                 let t = Instant::now();
-                let a = analysis.map(|a| &a.global);
-                (GlobalSystem::new(mesh, &cut, &rots, a), ms(t))
+                (
+                    GlobalSystem::new(mesh, &cut, &rots, global_how, gauge),
+                    ms(t),
+                )
             },
         );
         let (local, global) = (local?, global?);
@@ -585,19 +690,43 @@ impl QuadCover {
         frames: &[[DVec3; 2]],
         cancel: CancelCheck<'_>,
     ) -> Result<Parameterization, ParamError> {
+        self.solve_previewing(mesh, frames, &[], cancel, &no_preview)
+    }
+
+    /// [`QuadCover::solve_with_curves_until`] that hands the global step's map to `preview`
+    /// before the injectivity repair changes it (not for maps with poles: theirs is on the
+    /// mesh with the poles' stars cut open).
+    pub fn solve_previewing(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[DVec3; 2]],
+        curves: &[ConstraintCurve],
+        cancel: CancelCheck<'_>,
+        preview: PreviewSink<'_>,
+    ) -> Result<Parameterization, ParamError> {
+        if !curves.is_empty() {
+            return self.solve_curves(mesh, frames, curves, cancel, preview);
+        }
         self.check_frames(mesh, frames)?;
-        // One index per vertex, for the poles and the report alike.
-        let singularities = self.singularities(mesh, frames);
+        // One index per vertex, for the poles and the report alike; the local step beside it
+        // (wasted only when there are poles to open).
+        let (singularities, local) = rayon::join(
+            || self.singularities(mesh, frames),
+            || self.local_step(mesh, frames),
+        );
         if let Some((o, indices)) = self.opened(mesh, &singularities, &[])? {
             let p = o.qc.solve_until(&o.mesh, frames, cancel)?;
             return Ok(self.close(mesh, singularities, &o, &indices, p));
         }
-        let local = self.local_step(mesh, frames)?;
+        let local = local?;
         let t = Instant::now();
         let gaps = self.round_gaps(mesh, &local)?;
         let mut uv = self.global_uv(mesh, &local, &gaps)?;
         let global_ms = ms(t);
         let space = self.global.map_space(mesh.n_vertices(), &gaps);
+        if !self.opts.no_untangle && !untangle::folded(&uv).is_empty() {
+            preview(&uv);
+        }
         let cones = cones(mesh, &singularities);
         let mut repair = self.untangle(mesh, &local, &space, Some(&cones), &mut uv, cancel);
         let mut gaps = gaps;
@@ -645,9 +774,18 @@ impl QuadCover {
         curves: &[ConstraintCurve],
         cancel: CancelCheck<'_>,
     ) -> Result<Parameterization, ParamError> {
-        if curves.is_empty() {
-            return self.solve_until(mesh, frames, cancel);
-        }
+        self.solve_previewing(mesh, frames, curves, cancel, &no_preview)
+    }
+
+    /// The solve under constraint curves ([`QuadCover::solve_previewing`] with curves).
+    fn solve_curves(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[DVec3; 2]],
+        curves: &[ConstraintCurve],
+        cancel: CancelCheck<'_>,
+        preview: PreviewSink<'_>,
+    ) -> Result<Parameterization, ParamError> {
         for c in curves {
             if let Some(&v) = c.vertices.iter().find(|&&v| v >= mesh.n_vertices()) {
                 return Err(ParamError::InvalidInput(format!(
@@ -663,13 +801,16 @@ impl QuadCover {
             }
         }
         self.check_frames(mesh, frames)?;
-        let singularities = self.singularities(mesh, frames);
+        let (singularities, local) = rayon::join(
+            || self.singularities(mesh, frames),
+            || self.local_step(mesh, frames),
+        );
         if let Some((o, indices)) = self.opened(mesh, &singularities, &blocked)? {
             let p =
                 o.qc.solve_with_curves_until(&o.mesh, frames, curves, cancel)?;
             return Ok(self.close(mesh, singularities, &o, &indices, p));
         }
-        let local = self.local_step(mesh, frames)?;
+        let local = local?;
         let t = Instant::now();
         let traced = constraints::Traced::new(
             mesh,
@@ -704,6 +845,9 @@ impl QuadCover {
         };
         let global_ms = ms(t);
         // The repair holds the curves' fixed components: the fits below still hold exactly.
+        if !self.opts.no_untangle && !untangle::folded(&uv).is_empty() {
+            preview(&uv);
+        }
         let cones = cones(mesh, &singularities);
         let repair = self.untangle(mesh, &local, &space, Some(&cones), &mut uv, cancel);
         if cancel() {
@@ -1021,7 +1165,15 @@ pub fn curl(
     }
     let rots = Rots::new(symmetry);
     let cut = CutGraph::new(mesh, &rots, matchings);
-    let local = LocalSystem::new(mesh, &cut, &rots, analysis.map(|a| &a.local))?;
+    let local = LocalSystem::new(
+        mesh,
+        &cut,
+        &rots,
+        Factoring::Fresh {
+            analysis: analysis.map(|a| &a.local),
+            keep: false,
+        },
+    )?;
     let curl_free = local.solve(mesh, &cut, &rots, frames)?;
     Ok(removed(mesh, frames, &curl_free))
 }

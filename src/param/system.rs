@@ -4,7 +4,9 @@
 //! the complex number c − is acting on u + iv, and the system is assembled and factored as a
 //! Hermitian one (half the work of the real 2 × 2-block form, see `sparse::Scalar`).
 
-use crate::sparse::{Analysis, Scalar, SparseBuilder, SpdSolver, c64};
+use std::sync::Arc;
+
+use crate::sparse::{Analysis, RowUpdate, Scalar, SparseBuilder, SparseMatrix, SpdSolver, c64};
 
 use super::ParamError;
 use super::rot::M2;
@@ -23,11 +25,14 @@ fn block_to_complex(m: &M2) -> c64 {
 }
 
 impl BlockBuilder {
-    pub fn new(scalar: bool, n: usize, nnz_hint: usize) -> BlockBuilder {
-        if scalar {
-            BlockBuilder::Scalar(SparseBuilder::with_capacity(n, nnz_hint))
-        } else {
-            BlockBuilder::Complex(SparseBuilder::with_capacity(n, nnz_hint))
+    /// A builder for the system factored `how`: on the analysed pattern when there is an
+    /// analysis (see [`SparseBuilder::on_pattern`]).
+    pub fn new(scalar: bool, n: usize, nnz_hint: usize, how: &Factoring) -> BlockBuilder {
+        match (how.analysis(), scalar) {
+            (Some(a), true) => BlockBuilder::Scalar(SparseBuilder::on_pattern(a)),
+            (Some(a), false) => BlockBuilder::Complex(SparseBuilder::on_pattern(a)),
+            (None, true) => BlockBuilder::Scalar(SparseBuilder::with_capacity(n, nnz_hint)),
+            (None, false) => BlockBuilder::Complex(SparseBuilder::with_capacity(n, nnz_hint)),
         }
     }
     /// Block (i, j) += k · m.
@@ -37,42 +42,181 @@ impl BlockBuilder {
             BlockBuilder::Complex(b) => b.add(i, j, block_to_complex(m) * k),
         }
     }
-    /// Factors the system, with `analysis` of its pattern if one was computed beforehand.
-    pub fn factor(&self, analysis: Option<&Analysis>) -> Result<BlockSolver, ParamError> {
+    /// Factors the system, with `analysis` of its pattern if one was computed beforehand;
+    /// `keep`: keep the assembled matrix, for systems that later ones update (see
+    /// [`Self::update`]).
+    pub fn factor(
+        &self,
+        analysis: Option<&Analysis>,
+        keep: bool,
+    ) -> Result<BlockSolver, ParamError> {
         fn solver<T: Scalar>(
             b: &SparseBuilder<T>,
             analysis: Option<&Analysis>,
-        ) -> Result<SpdSolver<T>, ParamError> {
+            keep: bool,
+        ) -> Result<Factored<T>, ParamError> {
             let m = b.build()?;
-            Ok(match analysis {
+            let solver = match analysis {
                 Some(a) => SpdSolver::with_analysis(a.clone(), &m)?,
                 None => SpdSolver::new(&m)?,
+            };
+            Ok(Factored::Full {
+                solver: Arc::new(solver),
+                matrix: keep.then(|| Arc::new(m)),
             })
         }
         Ok(match self {
-            BlockBuilder::Scalar(b) => BlockSolver::Scalar(solver(b, analysis)?),
-            BlockBuilder::Complex(b) => BlockSolver::Complex(solver(b, analysis)?),
+            BlockBuilder::Scalar(b) => BlockSolver::Scalar(solver(b, analysis, keep)?),
+            BlockBuilder::Complex(b) => BlockSolver::Complex(solver(b, analysis, keep)?),
         })
+    }
+
+    /// The system as an update of `base` (a factored system of the same pattern that kept its
+    /// matrix) when the two differ in at most `max_rows` rows: no factorization, solves go
+    /// through the base's factor (see [`RowUpdate`]); otherwise factored afresh with the base's
+    /// analysis. The choice depends on the two matrices only, so it is reproducible.
+    pub fn update(&self, base: &BlockSolver, max_rows: usize) -> Result<BlockSolver, ParamError> {
+        fn solver<T: Scalar>(
+            b: &SparseBuilder<T>,
+            base: &Factored<T>,
+            max_rows: usize,
+        ) -> Result<Factored<T>, ParamError> {
+            let Factored::Full {
+                solver,
+                matrix: Some(base_matrix),
+            } = base
+            else {
+                return Err(ParamError::InvalidInput(
+                    "an update needs a fully factored base that kept its matrix".into(),
+                ));
+            };
+            let m = b.build()?;
+            if m.values() == base_matrix.values() {
+                return Ok(Factored::Same(solver.clone()));
+            }
+            let m = Arc::new(m);
+            Ok(
+                match RowUpdate::new(solver, base_matrix, m.clone(), max_rows)? {
+                    Some(u) => Factored::Rows(u),
+                    None => Factored::Full {
+                        solver: Arc::new(SpdSolver::with_analysis(solver.analysis().clone(), &m)?),
+                        matrix: None,
+                    },
+                },
+            )
+        }
+        Ok(match (self, base) {
+            (BlockBuilder::Scalar(b), BlockSolver::Scalar(f)) => {
+                BlockSolver::Scalar(solver(b, f, max_rows)?)
+            }
+            (BlockBuilder::Complex(b), BlockSolver::Complex(f)) => {
+                BlockSolver::Complex(solver(b, f, max_rows)?)
+            }
+            _ => {
+                return Err(ParamError::InvalidInput(
+                    "an update must keep the base's symmetry".into(),
+                ));
+            }
+        })
+    }
+}
+
+/// How a system is factored.
+#[derive(Clone, Copy)]
+pub(crate) enum Factoring<'a> {
+    /// Afresh, with an analysis of its pattern computed beforehand if there is one; `keep`:
+    /// keep the matrix, for systems that later ones update.
+    Fresh {
+        analysis: Option<&'a Analysis>,
+        keep: bool,
+    },
+    /// As an update of a base system (see [`BlockBuilder::update`]).
+    Update {
+        base: &'a BlockSolver,
+        max_rows: usize,
+    },
+}
+
+impl Factoring<'_> {
+    /// The analysis of the system's pattern, when one is known beforehand.
+    pub fn analysis(&self) -> Option<&Analysis> {
+        match self {
+            Factoring::Fresh { analysis, .. } => *analysis,
+            Factoring::Update { base, .. } => Some(base.analysis()),
+        }
+    }
+}
+
+impl BlockBuilder {
+    pub fn factor_by(&self, how: Factoring) -> Result<BlockSolver, ParamError> {
+        match how {
+            Factoring::Fresh { analysis, keep } => self.factor(analysis, keep),
+            Factoring::Update { base, max_rows } => self.update(base, max_rows),
+        }
+    }
+}
+
+/// A factored system, or an update of one in a few rows.
+pub(crate) enum Factored<T: Scalar> {
+    Full {
+        solver: Arc<SpdSolver<T>>,
+        /// The assembled matrix, kept for systems that later ones update.
+        matrix: Option<Arc<SparseMatrix<T>>>,
+    },
+    /// The base's factor, the matrix being the base's.
+    Same(Arc<SpdSolver<T>>),
+    Rows(RowUpdate<T>),
+}
+
+impl<T: Scalar> Factored<T> {
+    fn solver(&self) -> &SpdSolver<T> {
+        match self {
+            Factored::Full { solver, .. } | Factored::Same(solver) => solver,
+            Factored::Rows(u) => u.base(),
+        }
+    }
+    fn n(&self) -> usize {
+        self.solver().n()
+    }
+    fn solve_many(&self, rhs: &[&[T]]) -> Result<Vec<Vec<T>>, crate::sparse::SolverError> {
+        match self {
+            Factored::Full { solver, .. } | Factored::Same(solver) => solver.solve_many(rhs),
+            Factored::Rows(u) => u.solve_many(rhs),
+        }
+    }
+    fn updated_rows(&self) -> Option<usize> {
+        match self {
+            Factored::Full { .. } => None,
+            Factored::Same(_) => Some(0),
+            Factored::Rows(u) => Some(u.rank()),
+        }
     }
 }
 
 /// A factored block system; solves reuse the factorization (only back-substitution).
 pub(crate) enum BlockSolver {
-    Scalar(SpdSolver<f64>),
-    Complex(SpdSolver<c64>),
+    Scalar(Factored<f64>),
+    Complex(Factored<c64>),
 }
 
 impl BlockSolver {
     pub fn n(&self) -> usize {
         match self {
-            BlockSolver::Scalar(s) => s.n(),
-            BlockSolver::Complex(s) => s.n(),
+            BlockSolver::Scalar(s) => s.solver().n(),
+            BlockSolver::Complex(s) => s.solver().n(),
         }
     }
     pub fn analysis(&self) -> &Analysis {
         match self {
-            BlockSolver::Scalar(s) => s.analysis(),
-            BlockSolver::Complex(s) => s.analysis(),
+            BlockSolver::Scalar(s) => s.solver().analysis(),
+            BlockSolver::Complex(s) => s.solver().analysis(),
+        }
+    }
+    /// How many rows an update changed (`None`: factored itself).
+    pub fn updated_rows(&self) -> Option<usize> {
+        match self {
+            BlockSolver::Scalar(s) => s.updated_rows(),
+            BlockSolver::Complex(s) => s.updated_rows(),
         }
     }
     pub fn solve(&self, rhs: &[[f64; 2]]) -> Result<Vec<[f64; 2]>, ParamError> {
