@@ -91,6 +91,8 @@ pub enum FoldRepair {
     Off,
     /// Not a QuadCover result (synthetic UVs).
     None,
+    /// The global step's map, shown while its repair runs (`Document::show_preview`).
+    Pending,
 }
 
 /// The folded faces of the map shown ([`crate::param::folded_faces`] of its UVs; a pole's
@@ -149,6 +151,7 @@ impl Folds {
             FoldRepair::Ran { before: 0, .. } | FoldRepair::None => count,
             FoldRepair::Ran { before, .. } => format!("{count} ({before} before repair)"),
             FoldRepair::Off => format!("{count} (untangling off)"),
+            FoldRepair::Pending => format!("{count} (before the repair, which is running)"),
         };
         match self.miswound.len() {
             0 => line,
@@ -359,11 +362,13 @@ fn edit_error(e: EditError) -> String {
 }
 
 impl SolveRequest {
-    /// Runs the request (in a background job): base, edits, solve. `stage` reports progress.
+    /// Runs the request (in a background job): base, edits, solve. `stage` reports progress;
+    /// `preview` gets the global step's map when the injectivity repair is about to change it.
     pub fn run(
         self,
         cancel: crate::edit::Cancel,
         stage: &dyn Fn(&str),
+        preview: crate::param::PreviewSink<'_>,
     ) -> Result<SolveOutcome, String> {
         let (base, new_base, first, start_state) = match self.rebuild {
             Some(r) => {
@@ -399,7 +404,7 @@ impl SolveRequest {
             .map_err(edit_error)?;
         let (states, skipped) = (replay.states, replay.skipped);
         stage("field re-solve and QuadCover");
-        let solved = base.solve(states.last().expect("a state"), cancel);
+        let solved = base.solve_previewing(states.last().expect("a state"), cancel, preview);
         let contradiction = match &solved {
             Err(EditError::Contradiction { curves, .. }) => curves.clone(),
             _ => Vec::new(),
@@ -1073,6 +1078,24 @@ impl Document {
             }
             Err(e) => self.remesh_error = Some(e),
         }
+        true
+    }
+
+    /// Shows a solve's early map (the global step's, before the injectivity repair) in place
+    /// of the shown UVs until the solve's result arrives; `false` when it does not fit the mesh.
+    pub fn show_preview(&mut self, uv: Vec<[f64; 2]>) -> bool {
+        let Some(mesh) = &self.mesh else {
+            return false;
+        };
+        if uv.len() != 3 * mesh.n_faces() {
+            return false;
+        }
+        self.folds = Some(Arc::new(Folds::new(&uv, FoldRepair::Pending)));
+        self.param = Some(ParamDisplay {
+            corner_uvs: uv,
+            patches: Default::default(),
+        });
+        self.rebuild_scene();
         true
     }
 

@@ -193,8 +193,19 @@ impl EditorApp {
             }));
     }
 
-    /// Takes finished jobs' results into the document.
+    /// Takes finished jobs' results into the document, and the current solve's early map.
     pub fn poll_jobs(&mut self) {
+        let revision = self.document.edit_revision();
+        if let Some(job) = self.jobs.iter().find(|j| j.revision == Some(revision))
+            && let Some(uv) = job.progress.take_preview()
+            && self.document.show_preview(uv)
+        {
+            show_pattern(&mut self.document);
+            self.status = format!(
+                "{}: showing the global step's map, repairing folds",
+                job.name
+            );
+        }
         let mut i = 0;
         while i < self.jobs.len() {
             let Some(result) = self.jobs[i].poll() else {

@@ -54,10 +54,21 @@ impl EditorApp {
         } else {
             "Re-solving field and QuadCover".to_string()
         };
+        let repaint = self.ctx.clone();
         self.jobs.push(
             Job::spawn(name, self.ctx.clone(), move |progress| {
                 request
-                    .run(&|| progress.cancelled(), &|s| progress.set_stage(s))
+                    .run(
+                        &|| progress.cancelled(),
+                        &|s| progress.set_stage(s),
+                        &|uv| {
+                            progress.set_preview(uv);
+                            progress.set_stage("repairing folds (showing the global step's map)");
+                            if let Some(ctx) = &repaint {
+                                ctx.request_repaint();
+                            }
+                        },
+                    )
                     .map(|o| JobOutput::Solved(Box::new(o)))
             })
             .for_generation(generation)

@@ -44,6 +44,9 @@ pub struct Progress {
     cancel: AtomicBool,
     /// What the job is doing now (shown beside its name).
     stage: Mutex<String>,
+    /// A solve job's early result: the global step's map before the injectivity repair
+    /// (`Base::solve_previewing`), taken by the editor to show while the repair runs.
+    preview: Mutex<Option<Vec<[f64; 2]>>>,
 }
 
 impl Progress {
@@ -67,6 +70,17 @@ impl Progress {
         if let Ok(mut s) = self.stage.lock() {
             stage.clone_into(&mut s);
         }
+    }
+
+    pub fn set_preview(&self, uv: &[[f64; 2]]) {
+        if let Ok(mut p) = self.preview.lock() {
+            *p = Some(uv.to_vec());
+        }
+    }
+
+    /// The preview, once (`None` when there is none or it was taken).
+    pub fn take_preview(&self) -> Option<Vec<[f64; 2]>> {
+        self.preview.lock().ok().and_then(|mut p| p.take())
     }
 
     pub fn stage(&self) -> String {
@@ -101,6 +115,7 @@ impl Job {
             fraction: AtomicU32::new(u32::MAX),
             cancel: AtomicBool::new(false),
             stage: Mutex::new(String::new()),
+            preview: Mutex::new(None),
         });
         let p = Arc::clone(&progress);
         let name = name.into();
