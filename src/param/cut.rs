@@ -150,6 +150,13 @@ impl CutGraph {
         let mut done = vec![false; nv];
         let mut vertex_order = Vec::with_capacity(nv);
         let pos = mesh.positions();
+        // Each edge's length once (Dijkstra relaxes every edge from both ends).
+        let length: Vec<f64> = (0..ne)
+            .map(|e| {
+                let [a, b] = mesh.edge_vertices(e);
+                (pos[a] - pos[b]).length()
+            })
+            .collect();
         while let Some(Item(d, v)) = heap.pop() {
             let v = v as usize;
             if done[v] || d > dist[v] {
@@ -160,7 +167,7 @@ impl CutGraph {
             for &e in &adj[deg[v] as usize..deg[v + 1] as usize] {
                 let [a, b] = mesh.edge_vertices(e as usize);
                 let w = if a == v { b } else { a };
-                let nd = d + (pos[a] - pos[b]).length();
+                let nd = d + length[e as usize];
                 if !done[w] && nd < dist[w] {
                     dist[w] = nd;
                     parent_edge[w] = e;
@@ -180,10 +187,11 @@ impl CutGraph {
             .filter(|&e| !in_t[e] && !mesh.is_boundary_edge(e))
             .map(|e| {
                 let [a, b] = mesh.edge_vertices(e);
-                (dist[a] + dist[b] + (pos[a] - pos[b]).length(), e as u32)
+                (dist[a] + dist[b] + length[e], e as u32)
             })
             .collect();
-        cand.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
+        // A total order (ties by edge): the unstable sort gives the stable one's result.
+        cand.sort_unstable_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
         let mut uf: Vec<u32> = (0..nf as u32).collect();
         let mut in_dual = vec![false; ne];
         let mut generators = Vec::new();

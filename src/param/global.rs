@@ -49,15 +49,22 @@ impl GlobalSystem {
         // One unknown per vertex, numbered by vertex, so that the pattern is the mesh's. Branch
         // points (fixed by eq. 2.40) and the pinned vertex keep a decoupled identity row.
         let mut removed = vec![false; mesh.n_vertices()];
+        let mut fan: Vec<(usize, Aff)> = Vec::new();
         for v in 0..mesh.n_vertices() {
             let h0 = mesh.vertex_halfedge(v);
-            let mut fan: Vec<(usize, Aff)> = vec![(h0, Aff::default())];
+            fan.clear();
+            fan.push((h0, Aff::default()));
             let mut h = h0;
             let mut closing = None;
             loop {
                 let c = mesh.edge(mesh.prev(h));
-                let t = step(mesh, &cut.transitions[c], c, mesh.face_of(h), rots);
-                let acc = t.after(&fan.last().unwrap().1, rots);
+                let last = &fan.last().expect("the fan's first corner").1;
+                // Most edges are off the cut graph: nothing to compose.
+                let acc = if cut.transitions[c].is_identity() {
+                    last.clone()
+                } else {
+                    step(mesh, &cut.transitions[c], c, mesh.face_of(h), rots).after(last, rots)
+                };
                 match mesh.twin(mesh.prev(h)) {
                     None => break,
                     Some(hn) if hn == h0 => {
@@ -76,7 +83,7 @@ impl GlobalSystem {
                 let close = closing.expect("branch points are interior");
                 let inv = inverse(&sub(&ID, rots.get(close.rot as i64)));
                 let xlin = close.lin.left(&inv);
-                for (h, a) in fan {
+                for (h, a) in fan.drain(..) {
                     corner_lin[h] = xlin.left(rots.get(a.rot as i64)).add(&a.lin);
                 }
                 removed[v] = true;
@@ -98,7 +105,7 @@ impl GlobalSystem {
                 let f0 = mesh.face_of(h0);
                 g.rho[f0] as i64 - cut.rho[f0] as i64
             });
-            for (h, a) in fan {
+            for (h, a) in fan.drain(..) {
                 corner_var[h] = var;
                 corner_rot[h] = rots.norm(a.rot as i64 + shift);
                 corner_lin[h] = a.lin;

@@ -145,31 +145,57 @@ pub(crate) fn seam_error(
     worst
 }
 
-/// Index of a branch point: (Σ δ_e + K(v)) / 2π, with δ_e the angle from the matched, transported
-/// U of one face to the U of the next around the fan, rounded to a multiple of 1/N.
-pub(crate) fn vertex_index(
+/// Index of every interior vertex (0 on the boundary): (Σ δ_e + K(v)) / 2π, with δ_e the
+/// angle from the matched, transported U of one face to the U of the next across edge e around
+/// the fan, rounded to a multiple of 1/N; `defects` the angle defects K. Edge by edge: δ_e is
+/// computed once (both of the edge's ends see it, with opposite signs), which halves the
+/// trigonometry of walking every vertex's fan.
+pub(crate) fn vertex_indices(
     mesh: &TriMesh,
     cut: &CutGraph,
     n: usize,
     frames: &[[DVec3; 2]],
-    v: usize,
-) -> f64 {
-    let mut sum = 0.0;
-    for h in mesh.outgoing(v) {
-        let hp = mesh.prev(h);
-        let Some(t) = mesh.twin(hp) else { return 0.0 };
-        let (fa, fb) = (mesh.face_of(h), mesh.face_of(t));
-        let d = mesh.vector(hp).normalize_or_zero();
-        let ang = |f: usize| {
-            let u = frames[f][0];
-            let nrm = mesh.face_normal(f);
-            u.dot(nrm.cross(d)).atan2(u.dot(d))
-        };
-        let r = super::cut::crossing(mesh, &cut.matching, n, mesh.edge(hp), fa) as f64;
-        let mut delta = ang(fb) - (ang(fa) + TAU * r / n as f64);
-        delta -= TAU * (delta / TAU).round();
-        sum += delta;
-    }
-    let idx = (sum + mesh.angle_defect(v)) / TAU;
-    (idx * n as f64).round() / n as f64
+    defects: &[f64],
+) -> Vec<f64> {
+    use rayon::prelude::*;
+    // δ_e seen from the end of h0 (h0 runs into it; from face(h0) to face(h1)).
+    let delta: Vec<f64> = (0..mesh.n_edges())
+        .into_par_iter()
+        .map(|e| {
+            let (h0, h1) = mesh.edge_halfedges(e);
+            let Some(h1) = h1 else { return 0.0 };
+            let (fa, fb) = (mesh.face_of(h0), mesh.face_of(h1));
+            let d = mesh.vector(h0).normalize_or_zero();
+            let ang = |f: usize| {
+                let u = frames[f][0];
+                let nrm = mesh.face_normal(f);
+                u.dot(nrm.cross(d)).atan2(u.dot(d))
+            };
+            let r = super::cut::crossing(mesh, &cut.matching, n, e, fa) as f64;
+            let delta = ang(fb) - (ang(fa) + TAU * r / n as f64);
+            delta - TAU * (delta / TAU).round()
+        })
+        .collect();
+    (0..mesh.n_vertices())
+        .into_par_iter()
+        .map(|v| {
+            if mesh.is_boundary_vertex(v) {
+                return 0.0;
+            }
+            let sum: f64 = mesh
+                .outgoing(v)
+                .map(|h| {
+                    let hp = mesh.prev(h);
+                    let e = mesh.edge(hp);
+                    if mesh.edge_halfedges(e).0 == hp {
+                        delta[e]
+                    } else {
+                        -delta[e]
+                    }
+                })
+                .sum();
+            let idx = (sum + defects[v]) / TAU;
+            (idx * n as f64).round() / n as f64
+        })
+        .collect()
 }

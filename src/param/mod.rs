@@ -40,8 +40,6 @@ pub mod bench;
 
 use std::time::Instant;
 
-use rayon::prelude::*;
-
 use glam::DVec3;
 use serde::Serialize;
 use thiserror::Error;
@@ -280,6 +278,8 @@ pub struct QuadCover {
     /// The solver on the mesh with the poles' stars cut open (alg. 6), for the last set of
     /// poles the frames had.
     opened: std::sync::Mutex<Option<std::sync::Arc<Opened>>>,
+    /// The mesh's angle defects, once they are needed.
+    defects: std::sync::OnceLock<std::sync::Arc<Vec<f64>>>,
 }
 
 /// The opened solver and the treated poles' indices.
@@ -501,6 +501,10 @@ impl QuadCover {
                 repair_ms: 0.0,
             },
             opened: Default::default(),
+            defects: match how {
+                Build::Update(base) => base.defects.clone(),
+                Build::Fresh(..) => Default::default(),
+            },
         })
     }
 
@@ -1079,15 +1083,18 @@ impl QuadCover {
         p
     }
 
-    /// Interior vertices of non-zero index. In parallel (an index per vertex, 50 ms at 70 k
-    /// faces alone); the order is kept.
+    /// Interior vertices of non-zero index, in vertex order (the angle defects are the
+    /// mesh's: computed once, and an updated solver takes its base's).
     fn singularities(&self, mesh: &TriMesh, frames: &[[DVec3; 2]]) -> Vec<Singularity> {
+        let defects = self
+            .defects
+            .get_or_init(|| std::sync::Arc::new(mesh.angle_defects()));
+        let index = metrics::vertex_indices(mesh, &self.cut, self.symmetry, frames, defects);
         (0..mesh.n_vertices())
-            .into_par_iter()
             .filter(|&v| !mesh.is_boundary_vertex(v))
             .map(|v| Singularity {
                 vertex: v,
-                index: metrics::vertex_index(mesh, &self.cut, self.symmetry, frames, v),
+                index: index[v],
                 holonomy: self.cut.holonomy[v],
             })
             .filter(|s| s.holonomy != 0 || s.index != 0.0)

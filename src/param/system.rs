@@ -97,7 +97,7 @@ impl BlockBuilder {
             let m = Arc::new(m);
             Ok(
                 match RowUpdate::new(solver, base_matrix, m.clone(), max_rows)? {
-                    Some(u) => Factored::Rows(u),
+                    Some(u) => Factored::Rows(Box::new(u)),
                     None => Factored::Full {
                         solver: Arc::new(SpdSolver::with_analysis(solver.analysis().clone(), &m)?),
                         matrix: None,
@@ -165,7 +165,7 @@ pub(crate) enum Factored<T: Scalar> {
     },
     /// The base's factor, the matrix being the base's.
     Same(Arc<SpdSolver<T>>),
-    Rows(RowUpdate<T>),
+    Rows(Box<RowUpdate<T>>),
 }
 
 impl<T: Scalar> Factored<T> {
