@@ -725,3 +725,53 @@ fn updated_factors_solve_like_fresh_ones() {
         assert_eq!(solved.reuse, Reuse::Base);
     }
 }
+
+/// The editor shows the global step's map while the repair runs (`Base::solve_previewing`): it
+/// is handed over only when the repair has folds to undo, it is that map (seamless, with the
+/// folds the report counts before the repair), and the solve's result is the repaired one.
+#[test]
+fn the_global_steps_map_is_previewed_before_the_repair() {
+    let Some(path) = shared("camelhead.obj") else {
+        return;
+    };
+    let base = base_for(&path, Settings::default());
+    let s0 = base.initial().clone();
+    let (&p, _) = s0.singularities.iter().next().expect("a singularity");
+    let q = vertex_away(&base, &s0, p, 3);
+    let s1 = move_to_free(&base, &s0, p, q);
+    let seen = std::sync::Mutex::new(Vec::new());
+    let solved = base
+        .solve_previewing(&s1, &quadcover::edit::never, &|uv| {
+            seen.lock().unwrap().push(uv.to_vec())
+        })
+        .unwrap();
+    check_solved(&base, &s1, &solved);
+    let seen = seen.into_inner().unwrap();
+    let before = solved.param.flipped_faces_before_repair;
+    assert!(
+        before > 0,
+        "camelhead's global step should fold (the case under test)"
+    );
+    assert_eq!(seen.len(), 1, "one preview per solve");
+    let preview = &seen[0];
+    assert_eq!(quadcover::param::folded_faces(preview).len(), before);
+    let n = base.settings().symmetry as usize;
+    let err = contract_error(base.mesh(), preview, n, solved.param.lattice);
+    assert!(err < 1e-6, "the preview's seam error {err:e}");
+    assert_eq!(solved.param.flipped_faces, 0);
+    assert_ne!(bits(preview), bits(&solved.param.uv));
+    // With the repair off there is nothing to preview.
+    let off = base
+        .with_settings(Settings {
+            no_untangle: true,
+            ..Settings::default()
+        })
+        .unwrap()
+        .expect("the field does not depend on the repair");
+    let calls = std::sync::atomic::AtomicUsize::new(0);
+    off.solve_previewing(&s1, &quadcover::edit::never, &|_| {
+        calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    })
+    .unwrap();
+    assert_eq!(calls.into_inner(), 0);
+}

@@ -1197,4 +1197,29 @@ mod tests {
         let folds = Folds::with_poles(&uv, &[pole], FoldRepair::None);
         assert_eq!(folds.faces, vec![1, 2]);
     }
+
+    #[test]
+    fn a_preview_replaces_the_shown_uvs_until_the_result() {
+        let mesh = Arc::new(crate::mesh::generate::icosphere(1));
+        let mut doc = Document {
+            mesh: Some(mesh.clone()),
+            ..Document::default()
+        };
+        assert!(
+            !doc.show_preview(vec![[0.0; 2]; 5]),
+            "does not fit the mesh"
+        );
+        assert!(doc.param.is_none());
+        let flipped = [[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]];
+        let mut uv: Vec<[f64; 2]> = (0..3 * mesh.n_faces())
+            .map(|c| [c as f64, (c % 3) as f64 * 0.5])
+            .collect();
+        uv[..3].copy_from_slice(&flipped);
+        assert!(doc.show_preview(uv.clone()));
+        assert_eq!(doc.param.as_ref().map(|p| &p.corner_uvs), Some(&uv));
+        let folds = doc.folds.as_ref().expect("folds of the preview");
+        assert_eq!(folds.repair, FoldRepair::Pending);
+        assert!(folds.faces.contains(&0));
+        assert!(folds.summary().contains("before the repair"));
+    }
 }
