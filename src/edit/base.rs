@@ -723,11 +723,7 @@ impl Base {
                     frames: self.frames(&theta),
                     matchings: matchings.clone(),
                 };
-                let indices =
-                    indices_from_angles(&self.mesh, &self.tr, &theta, &field.matchings, n);
-                let (e_smooth, e_align) = self.energies_of(state, &theta);
-                let rest = clock.elapsed().as_secs_f64() - resolve;
-                Ok::<_, EditError>((theta, field, indices, e_smooth, e_align, resolve, rest))
+                Ok::<_, EditError>((theta, field, resolve))
             },
             || {
                 let clock = Instant::now();
@@ -735,7 +731,7 @@ impl Base {
                 Ok::<_, EditError>((qc, clock.elapsed().as_secs_f64()))
             },
         );
-        let (theta, field, indices, e_smooth, e_align, resolve, rest) = field_part?;
+        let (theta, field, resolve) = field_part?;
         let (qc, qc_seconds) = qc_part?;
         let reuse = match &qc {
             Solver::Base(_) => Reuse::Base,
@@ -745,7 +741,6 @@ impl Base {
             }
         };
         timings.push(("field re-solve".to_string(), resolve));
-        timings.push(("indices".to_string(), rest));
         timings.push(("QuadCover factorizations (beside)".to_string(), qc_seconds));
         lap("field and QuadCover, side by side", &mut timings);
         if cancel() {
@@ -767,6 +762,11 @@ impl Base {
                 e => EditError::Param(e.to_string()),
             })?;
         lap("QuadCover solve", &mut timings);
+        // The report's indices and energies come last: nothing on screen waits for them (and
+        // the cores are busy until the global step's map is there).
+        let indices = indices_from_angles(&self.mesh, &self.tr, &theta, &field.matchings, n);
+        let (e_smooth, e_align) = self.energies_of(state, &theta);
+        lap("indices and energies", &mut timings);
         Ok(Solved {
             field,
             theta,

@@ -198,12 +198,23 @@ impl Scalar for c32 {
     }
 }
 
-/// A builder's known pattern, its values and the first entry outside it.
-type OnPattern<T> = (
-    Arc<(Vec<usize>, Vec<usize>)>,
-    Vec<T>,
-    Option<(usize, usize)>,
-);
+/// A builder on a known pattern ([`SparseBuilder::on_pattern`]).
+#[derive(Clone, Debug)]
+struct OnPattern<T> {
+    pattern: Arc<(Vec<usize>, Vec<usize>)>,
+    values: Vec<T>,
+    /// The first entry outside the pattern.
+    missing: Option<(usize, usize)>,
+    /// The analysis's positions of a previous builder's additions, in order, and how many of
+    /// them this one has used: systems assembled again add the same entries in the same order
+    /// (QuadCover's, for any matchings), so the k-th addition lands where it did before, which
+    /// is checked (two reads) instead of searched for.
+    replay: Option<Arc<Vec<u32>>>,
+    cursor: usize,
+    /// This builder's positions, when the analysis has none yet; handed to it by `build`.
+    record: Vec<u32>,
+    positions: Arc<std::sync::OnceLock<Arc<Vec<u32>>>>,
+}
 
 /// Collects matrix entries; duplicates are summed.
 #[derive(Clone, Debug)]
@@ -236,25 +247,48 @@ impl<T: Scalar> SparseBuilder<T> {
         SparseBuilder {
             n: pattern.0.len() - 1,
             entries: Vec::new(),
-            on_pattern: Some((pattern, vec![T::ZERO; nnz], None)),
+            on_pattern: Some(OnPattern {
+                pattern,
+                values: vec![T::ZERO; nnz],
+                missing: None,
+                replay: analysis.positions.get().cloned(),
+                cursor: 0,
+                record: Vec::new(),
+                positions: analysis.positions.clone(),
+            }),
         }
     }
     /// Adds `v` at (i, j). For symmetric matrices add both (i, j) and (j, i); for Hermitian ones
     /// v at (i, j) and conj(v) at (j, i).
     pub fn add(&mut self, i: usize, j: usize, v: T) {
         debug_assert!(i < self.n && j < self.n);
-        if let Some((pattern, values, missing)) = &mut self.on_pattern {
-            let (col_ptr, row_idx) = (&pattern.0, &pattern.1);
+        if let Some(p) = &mut self.on_pattern {
+            let (col_ptr, row_idx) = (&p.pattern.0, &p.pattern.1);
+            if let Some(replay) = &p.replay {
+                let k = replay.get(p.cursor).map_or(usize::MAX, |&k| k as usize);
+                p.cursor += 1;
+                if j < self.n
+                    && k < row_idx.len()
+                    && row_idx[k] == i
+                    && (col_ptr[j]..col_ptr[j + 1]).contains(&k)
+                {
+                    p.values[k] += v;
+                    return;
+                }
+            }
             let found = (j < self.n)
                 .then(|| {
                     let (a, b) = (col_ptr[j], col_ptr[j + 1]);
                     row_idx[a..b].binary_search(&i).ok().map(|k| a + k)
                 })
                 .flatten();
+            if p.replay.is_none() {
+                p.record.push(found.map_or(u32::MAX, |k| k as u32));
+            }
             match found {
-                Some(k) => values[k] += v,
+                Some(k) => p.values[k] += v,
                 None => {
-                    missing.get_or_insert((i, j));
+                    p.missing.get_or_insert((i, j));
                 }
             }
             return;
@@ -278,17 +312,21 @@ impl<T: Scalar> SparseBuilder<T> {
     /// about a tenth of a whole `solve` run.
     pub fn build(&self) -> Result<SparseMatrix<T>, SolverError> {
         let n = self.n;
-        if let Some((pattern, values, missing)) = &self.on_pattern {
-            if let Some((i, j)) = missing {
+        if let Some(p) = &self.on_pattern {
+            if let Some((i, j)) = p.missing {
                 return Err(SolverError::Build(format!(
                     "entry ({i}, {j}) is not in the analysed pattern"
                 )));
             }
+            if p.replay.is_none() && p.record.iter().all(|&k| k != u32::MAX) {
+                // The first assembly on this analysis: later ones replay its positions.
+                let _ = p.positions.set(Arc::new(p.record.clone()));
+            }
             return Ok(SparseMatrix {
                 n,
-                col_ptr: pattern.0.clone(),
-                row_idx: pattern.1.clone(),
-                values: values.clone(),
+                col_ptr: p.pattern.0.clone(),
+                row_idx: p.pattern.1.clone(),
+                values: p.values.clone(),
             });
         }
         if self.n >= u32::MAX as usize {
@@ -496,6 +534,9 @@ fn zeroed_buffer<T: Scalar>(n: usize) -> Vec<T> {
 pub struct Analysis {
     symbolic: Arc<SymbolicCholesky<usize>>,
     pattern: Arc<(Vec<usize>, Vec<usize>)>,
+    /// Where the first builder on this pattern put its additions, in order (see
+    /// [`SparseBuilder::on_pattern`]).
+    positions: Arc<std::sync::OnceLock<Arc<Vec<u32>>>>,
 }
 
 impl Analysis {
@@ -517,6 +558,7 @@ impl Analysis {
         Ok(Analysis {
             symbolic: Arc::new(symbolic),
             pattern: Arc::new((matrix.col_ptr.clone(), matrix.row_idx.clone())),
+            positions: Default::default(),
         })
     }
     /// The analysis with the elimination order `order` (position → unknown) instead of AMD.
@@ -815,6 +857,35 @@ pub(crate) fn grid_laplacian(side: usize, weight: impl Fn(usize) -> f64) -> Spar
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn builders_on_a_pattern_replay_its_positions_and_check_them() {
+        let m = grid_laplacian(12, |i| i as f64);
+        let analysis = Analysis::new(&m).unwrap();
+        let entries = m.entries();
+        let assemble = |order: &[(usize, usize, f64)]| {
+            let mut b = SparseBuilder::<f64>::on_pattern(&analysis);
+            for &(i, j, v) in order {
+                b.add(i, j, v);
+            }
+            b.build().unwrap()
+        };
+        let first = assemble(&entries);
+        assert!(
+            analysis.positions.get().is_some(),
+            "the first assembly records"
+        );
+        assert_eq!(first.values(), m.values());
+        // The same additions again (replayed), and in another order (each replayed position
+        // is checked, the wrong ones searched for): the same matrix.
+        assert_eq!(assemble(&entries).values(), m.values());
+        let reversed: Vec<_> = entries.iter().rev().copied().collect();
+        assert_eq!(assemble(&reversed).values(), m.values());
+        // Outside the pattern: an error, not a silent write.
+        let mut b = SparseBuilder::<f64>::on_pattern(&analysis);
+        b.add(0, 143, 1.0);
+        assert!(b.build().is_err());
+    }
 
     #[test]
     fn compressed_columns_are_checked() {
