@@ -475,6 +475,9 @@ pub struct Document {
     pub param: Option<ParamDisplay>,
     /// The folded faces of `param` (`None` without one); a new `Arc` per result.
     pub folds: Option<Arc<Folds>>,
+    /// The display a solve's preview replaced ([`Document::show_preview`]), put back when that
+    /// solve fails: the last good result stays on screen.
+    preview_backup: Option<(Option<ParamDisplay>, Option<Arc<Folds>>)>,
     /// The core field the display form came from (input of the parameterization).
     pub frame_field: Option<crate::field::FrameField>,
     /// The core parameterization result.
@@ -551,6 +554,7 @@ impl Default for Document {
             field: None,
             param: None,
             folds: None,
+            preview_backup: None,
             frame_field: None,
             parameterization: None,
             remesh: None,
@@ -810,6 +814,11 @@ impl Document {
             Err(e) => {
                 self.solve_error = Some(e);
                 self.contradiction = outcome.contradiction;
+                if let Some((param, folds)) = self.preview_backup.take() {
+                    self.param = param;
+                    self.folds = folds;
+                    self.rebuild_scene();
+                }
             }
         }
         true
@@ -973,6 +982,7 @@ impl Document {
     /// Takes a computed parameterization: UVs, cut graph overlay, folded faces, summary.
     /// `untangle`: whether it was solved with the injectivity repair on.
     pub fn set_parameterization(&mut self, p: crate::param::Parameterization, untangle: bool) {
+        self.preview_backup = None;
         let mut segs = Vec::new();
         if let Some(mesh) = &self.mesh {
             for path in &p.cut_paths {
@@ -1090,6 +1100,9 @@ impl Document {
         if uv.len() != 3 * mesh.n_faces() {
             return false;
         }
+        if self.preview_backup.is_none() {
+            self.preview_backup = Some((self.param.take(), self.folds.take()));
+        }
         self.folds = Some(Arc::new(Folds::new(&uv, FoldRepair::Pending)));
         self.param = Some(ParamDisplay {
             corner_uvs: uv,
@@ -1101,6 +1114,7 @@ impl Document {
 
     /// Sets (or clears) the parameterization.
     pub fn set_param(&mut self, param: Option<ParamDisplay>) {
+        self.preview_backup = None;
         self.folds = param
             .as_ref()
             .map(|p| Arc::new(Folds::new(&p.corner_uvs, FoldRepair::None)));
@@ -1221,5 +1235,21 @@ mod tests {
         assert_eq!(folds.repair, FoldRepair::Pending);
         assert!(folds.faces.contains(&0));
         assert!(folds.summary().contains("before the repair"));
+        // A second preview keeps the display from before the first; a failed solve puts it back.
+        assert!(doc.show_preview(uv.clone()));
+        doc.take_outcome(SolveOutcome {
+            revision: doc.edit_revision(),
+            base: None,
+            first: 0,
+            states: Vec::new(),
+            skipped: Vec::new(),
+            solved: Err("failed".into()),
+            contradiction: Vec::new(),
+        });
+        assert!(
+            doc.param.is_none(),
+            "the display before the preview (none) is back"
+        );
+        assert!(doc.folds.is_none());
     }
 }

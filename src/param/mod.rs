@@ -322,8 +322,10 @@ const REROUND_GAPS: usize = 8;
 const REROUND_TRIES: usize = 3;
 const REROUND_ROUNDS: usize = 6;
 
-/// Changed rows up to which [`QuadCover::updated`] updates a system instead of refactoring it
-/// (each costs two solves with the base's factor; measured in docs/CONTRACTS.md).
+/// Changed rows up to which [`QuadCover::updated`] updates a system instead of refactoring it.
+/// Inside a supernodal factor each row adds three sparse columns solved along their
+/// elimination-tree paths, and a solve stays one substitution pair (`sparse::RowUpdate`); a
+/// move of a few edges changes a few rows, a *Relax* of the whole mesh more than this.
 pub const UPDATE_MAX_ROWS: usize = 48;
 
 /// How [`QuadCover::build`] gets its systems: factored (with analyses computed beforehand,
