@@ -19,11 +19,11 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
 use faer::linalg::cholesky::llt::solve::solve_in_place;
 use faer::linalg::matmul::matmul;
-use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
 use faer::sparse::linalg::cholesky::supernodal::{SupernodalLltRef, SymbolicSupernodalCholesky};
 use faer::{Accum, Conj, Mat, Par};
 
+use super::rows::{PathBlock, path_columns};
 use super::{SolverError, SpdSolver, clear_upper_vector_state};
 
 /// [`SpdSolver::downdated`] declines (the caller refactors) when computing Y and YᵀY would take
@@ -38,19 +38,11 @@ pub struct DiagonalDowndate<'a> {
     solver: &'a SpdSolver<f64>,
     symbolic: &'a SymbolicSupernodalCholesky<usize>,
     /// Y = L⁻¹ P E by supernode, ancestors after descendants.
-    blocks: Vec<PathBlock>,
+    blocks: Vec<PathBlock<f64>>,
     /// The Cholesky factor (lower triangle) of K = D⁻¹ − Yᵀ Y.
     capacitance: Mat<f64>,
     /// How many diagonal entries were lowered.
     rank: usize,
-}
-
-/// The rows of Y in one supernode: its columns `start..start + values.nrows()`, for the columns
-/// of Y (`active`, ascending) whose path passes through it.
-struct PathBlock {
-    start: usize,
-    active: Vec<usize>,
-    values: Mat<f64>,
 }
 
 impl SpdSolver<f64> {
@@ -148,134 +140,37 @@ impl SpdSolver<f64> {
     }
 }
 
-/// Y = L⁻¹ P E (E: the unit columns at the permuted rows `p`), by supernode along the paths.
+/// Y = L⁻¹ P E (E: the unit columns at the permuted rows `p`), by supernode along the paths
+/// (`rows::path_columns`), declined when computing it and YᵀY would cost more than
+/// [`REFACTOR_RATIO`] refactorizations.
 fn path_blocks(
     sym: &SymbolicSupernodalCholesky<usize>,
     factor: SupernodalLltRef<'_, usize, f64>,
     p: &[usize],
-) -> Result<Vec<PathBlock>, SolverError> {
-    let ns = sym.n_supernodes();
+) -> Result<Vec<PathBlock<f64>>, SolverError> {
     let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
-    let mut supernode_of = vec![0u32; sym.nrows()];
-    for s in 0..ns {
-        supernode_of[begin[s]..end[s]].fill(s as u32);
-    }
-    // Parent of a supernode: the one holding its first off-diagonal row.
-    let parent = |s: usize| {
-        sym.supernode(s)
-            .pattern()
-            .first()
-            .map(|&r| supernode_of[r] as usize)
-    };
-    // Which columns of Y pass through each supernode (ascending, as the columns are visited in
-    // order); `slot[s]` is the supernode's index in `blocks`.
-    let mut active: Vec<Vec<usize>> = vec![Vec::new(); ns];
-    for (j, &pj) in p.iter().enumerate() {
-        let mut s = Some(supernode_of[pj] as usize);
-        while let Some(t) = s {
-            active[t].push(j);
-            s = parent(t);
+    let columns: Vec<Vec<(usize, f64)>> = p.iter().map(|&r| vec![(r, 1.0)]).collect();
+    path_columns(sym, factor, &columns, |active| {
+        // Floating-point work of Y (triangular solve and update per block) and of YᵀY against
+        // that of refactoring: with thousands of columns the Gram products near the root come
+        // close to the factorization itself.
+        let (mut work, mut refactor) = (0.0f64, 0.0f64);
+        for (s, active) in active.iter().enumerate() {
+            let (size, below) = (
+                (end[s] - begin[s]) as f64,
+                sym.supernode(s).pattern().len() as f64,
+            );
+            refactor += size * size * size / 3.0 + size * size * below + size * below * below;
+            let m = active.len() as f64;
+            work += size * size * m + below * size * m + size * m * m;
         }
-    }
-    // Floating-point work of Y (triangular solve and update per block) and of YᵀY against that
-    // of refactoring: with thousands of columns the Gram products near the root come close to
-    // the factorization itself.
-    let (mut work, mut refactor) = (0.0f64, 0.0f64);
-    for s in 0..ns {
-        let (size, below) = (
-            (end[s] - begin[s]) as f64,
-            sym.supernode(s).pattern().len() as f64,
-        );
-        refactor += size * size * size / 3.0 + size * size * below + size * below * below;
-        let m = active[s].len() as f64;
-        work += size * size * m + below * size * m + size * m * m;
-    }
-    if work > REFACTOR_RATIO * refactor {
-        return Err(SolverError::Build(format!(
-            "a refactorization is cheaper ({refactor:.2e} against {work:.2e} flops)"
-        )));
-    }
-    let mut slot = vec![usize::MAX; ns];
-    let mut blocks = Vec::new();
-    for s in 0..ns {
-        if !active[s].is_empty() {
-            slot[s] = blocks.len();
-            let m = active[s].len();
-            blocks.push(PathBlock {
-                start: begin[s],
-                active: std::mem::take(&mut active[s]),
-                values: Mat::zeros(end[s] - begin[s], m),
-            });
+        if work > REFACTOR_RATIO * refactor {
+            return Err(SolverError::Build(format!(
+                "a refactorization is cheaper ({refactor:.2e} against {work:.2e} flops)"
+            )));
         }
-    }
-    for (j, &pj) in p.iter().enumerate() {
-        let b = &mut blocks[slot[supernode_of[pj] as usize]];
-        let c = b.active.binary_search(&j).map_err(|_| path_error())?;
-        b.values[(pj - b.start, c)] = 1.0;
-    }
-    // Forward substitution, supernodes in ascending order (descendants first).
-    let mut position = Vec::new();
-    for s in 0..ns {
-        let i = slot[s];
-        if i == usize::MAX {
-            continue;
-        }
-        let node = factor.supernode(s);
-        let size = end[s] - begin[s];
-        let (top, bottom) = node.val().split_at_row(size);
-        let (done, later) = blocks.split_at_mut(i + 1);
-        let block = &mut done[i];
-        solve_lower_triangular_in_place(top, block.values.as_mut(), Par::Seq);
-        let pattern = node.pattern();
-        if pattern.is_empty() {
-            continue;
-        }
-        let mut update = Mat::<f64>::zeros(pattern.len(), block.active.len());
-        matmul(
-            update.as_mut(),
-            Accum::Replace,
-            bottom,
-            block.values.as_ref(),
-            1.0,
-            Par::Seq,
-        );
-        // Scatter into the ancestors, one run of rows per ancestor supernode.
-        let mut r = 0;
-        while r < pattern.len() {
-            let t = supernode_of[pattern[r]] as usize;
-            let run = pattern[r..]
-                .iter()
-                .take_while(|&&row| supernode_of[row] as usize == t)
-                .count();
-            if slot[t] <= i {
-                return Err(path_error());
-            }
-            let target = &mut later[slot[t] - i - 1];
-            // Where each of this block's columns sits in the ancestor's (a subset, both sorted).
-            position.clear();
-            let mut c = 0;
-            for &j in &block.active {
-                while c < target.active.len() && target.active[c] < j {
-                    c += 1;
-                }
-                if c == target.active.len() || target.active[c] != j {
-                    return Err(path_error());
-                }
-                position.push(c);
-            }
-            for (a, &c) in position.iter().enumerate() {
-                for q in r..r + run {
-                    target.values[(pattern[q] - target.start, c)] -= update[(q, a)];
-                }
-            }
-            r += run;
-        }
-    }
-    Ok(blocks)
-}
-
-fn path_error() -> SolverError {
-    SolverError::Build("the factor's rows are not on its elimination-tree paths".into())
+        Ok(())
+    })
 }
 
 impl DiagonalDowndate<'_> {

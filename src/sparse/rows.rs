@@ -71,10 +71,10 @@ struct Through<T: Scalar> {
 /// The rows of some sparse columns of L⁻¹ in one supernode: its columns
 /// `start..start + values.nrows()`, for the columns (`active`, ascending) whose paths pass
 /// through it.
-struct PathBlock<T: Scalar> {
-    start: usize,
-    active: Vec<usize>,
-    values: Mat<T>,
+pub(super) struct PathBlock<T: Scalar> {
+    pub start: usize,
+    pub active: Vec<usize>,
+    pub values: Mat<T>,
 }
 
 /// Solutions with A₀, and the correction.
@@ -177,7 +177,7 @@ impl<T: Scalar> RowUpdate<T> {
                 .map(|c| c.iter().map(|&(j, d)| (at(j), d.conjugate())).collect()),
         );
         let factor = SupernodalLltRef::new(sym, &self.base.l_values);
-        let blocks = path_columns(sym, factor, &columns)?;
+        let blocks = path_columns(sym, factor, &columns, |_| Ok(()))?;
         // I + W̃ᴴ Ỹ: per supernode the Gram matrix of its active columns, scattered.
         let m = 2 * s;
         let w_of = |c: usize| {
@@ -398,10 +398,14 @@ impl<T: Scalar> RowUpdate<T> {
 /// rows to the root: at each supernode one dense triangular solve and one product for all the
 /// columns whose paths pass through it (as `DiagonalDowndate`'s `path_blocks`, for columns of
 /// several entries).
-fn path_columns<T: Scalar>(
+///
+/// `check` sees, per supernode, which columns pass through it before any work is done, and may
+/// decline (`DiagonalDowndate` declines when refactoring is cheaper).
+pub(super) fn path_columns<T: Scalar>(
     sym: &SymbolicSupernodalCholesky<usize>,
     factor: SupernodalLltRef<'_, usize, T>,
     columns: &[Vec<(usize, T)>],
+    check: impl FnOnce(&[Vec<usize>]) -> Result<(), SolverError>,
 ) -> Result<Vec<PathBlock<T>>, SolverError> {
     let ns = sym.n_supernodes();
     let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
@@ -430,6 +434,7 @@ fn path_columns<T: Scalar>(
             }
         }
     }
+    check(&active)?;
     let mut slot = vec![usize::MAX; ns];
     let mut blocks = Vec::new();
     for s in 0..ns {
