@@ -742,6 +742,10 @@ impl Base {
         };
         timings.push(("field re-solve".to_string(), resolve));
         timings.push(("QuadCover factorizations (beside)".to_string(), qc_seconds));
+        timings.push((
+            "  of which the cut graph".to_string(),
+            qc.timings.cut_ms / 1e3,
+        ));
         lap("field and QuadCover, side by side", &mut timings);
         if cancel() {
             return Err(EditError::Cancelled);

@@ -447,7 +447,11 @@ impl QuadCover {
         };
         let rots = Rots::new(symmetry);
         let t = Instant::now();
-        let cut = CutGraph::new(mesh, &rots, matchings);
+        let cut = match how {
+            Build::Fresh(..) => CutGraph::new(mesh, &rots, matchings),
+            // Only the part of the base's forest around the moved branch points is regrown.
+            Build::Update(base) => CutGraph::updated(mesh, &rots, matchings, &base.cut),
+        };
         let cut_ms = ms(t);
         let (local_how, global_how, gauge) = match how {
             Build::Fresh(analysis, keep) => (
