@@ -422,7 +422,7 @@ impl CutGraph {
             gone[r as usize] = true;
         }
         for v in 0..nv {
-            if gone[root[v] as usize] {
+            if root[v] != NONE && gone[root[v] as usize] {
                 dist[v] = f64::INFINITY;
                 parent_edge[v] = NONE;
                 root[v] = NONE;
