@@ -458,21 +458,17 @@ impl CutGraph {
         let in_t = tree_edges(mesh.n_edges(), &parent_edge);
         // Candidates: base's where neither end changed, the others re-weighed and merged in.
         let mut stale = vec![false; mesh.n_edges()];
-        for &v in &touched.list {
-            for &(e, _) in graph.edges(v as usize) {
-                stale[e as usize] = true;
-            }
-        }
         let mut fresh: Vec<(f64, u32)> = Vec::new();
         for &v in &touched.list {
             for &(e, _) in graph.edges(v as usize) {
-                if let Some(c) = candidate(mesh, &graph, &dist, &in_t, e as usize) {
-                    fresh.push(c);
+                let e = e as usize;
+                if !stale[e] {
+                    stale[e] = true;
+                    fresh.extend(candidate(mesh, &graph, &dist, &in_t, e));
                 }
             }
         }
         fresh.sort_unstable_by(kruskal_order);
-        fresh.dedup_by_key(|c| c.1);
         let mut candidates = Vec::with_capacity(f.candidates.len() + fresh.len());
         let mut kept = f
             .candidates
