@@ -129,7 +129,7 @@ fn fandisk_features_cover_every_feature_edge_once() {
     };
     for angle in [35.0, 40.0] {
         let fe = feature_edges(&m, angle);
-        let curves = detect_features(&m, angle);
+        let curves = detect_features(&m, angle, 0.0);
         eprintln!(
             "fandisk {angle}°: {} feature edges, {}",
             fe.len(),
@@ -137,7 +137,7 @@ fn fandisk_features_cover_every_feature_edge_once() {
         );
         assert!(!fe.is_empty());
         check_rules(&m, &curves, &fe, true);
-        assert_eq!(curves, detect_features(&m, angle), "deterministic");
+        assert_eq!(curves, detect_features(&m, angle, 0.0), "deterministic");
     }
 }
 
@@ -147,7 +147,7 @@ fn camelhead_boundary_covers_every_boundary_edge_once() {
         return;
     };
     let be = boundary_edges(&m);
-    let curves = boundary_curves(&m);
+    let curves = boundary_curves(&m, 0.0);
     eprintln!(
         "camelhead boundary: {} edges, {}",
         be.len(),
@@ -171,7 +171,7 @@ fn bunny_boundary_covers_its_five_loops() {
     };
     let be = boundary_edges(&m);
     assert_eq!(be.len(), 80 + 42 + 40 + 39 + 22);
-    let curves = boundary_curves(&m);
+    let curves = boundary_curves(&m, 0.0);
     eprintln!("bunny boundary: {} edges, {}", be.len(), summary(&curves));
     check_rules(&m, &curves, &be, false);
 }

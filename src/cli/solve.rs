@@ -622,6 +622,11 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                         .iter()
                         .map(|&v| repair.original_vertex[v] as usize)
                         .collect(),
+                    ear_tips: c
+                        .ear_tips
+                        .iter()
+                        .map(|&v| repair.original_vertex[v] as usize)
+                        .collect(),
                     ..c.clone()
                 })
                 .collect(),

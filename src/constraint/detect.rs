@@ -6,7 +6,10 @@
 //! * A vertex is a **split point** when the number of chosen edges at it is not two (an end of a
 //!   chain, or a junction of three or more), when the chain turns sharply there (the angle
 //!   between the directions of the incoming and the outgoing edge exceeds [`SHARP_TURN_DEG`],
-//!   measured in 3-D), and, for features only, when it is a boundary vertex (a crease meeting
+//!   measured in 3-D, and so does the angle between the chords to the chain's points a
+//!   `scale` away on either side, so that a scanned boundary's zigzag at a scale below the
+//!   grid's is no corner; of such turns closer than `scale` along the chain only the sharpest
+//!   splits), and, for features only, when it is a boundary vertex (a crease meeting
 //!   the boundary).
 //! * Curves run between split points and never pass through one. A loop of chosen edges with no
 //!   split point at all is one closed curve. A loop with exactly one split point is cut there
@@ -53,8 +56,9 @@ pub fn feature_edges(mesh: &TriMesh, angle_deg: f64) -> Vec<usize> {
 /// Feature edges ([`feature_edges`] at `angle_deg`) chained into curves, split at junctions of
 /// three or more feature edges, at sharp turns ([`SHARP_TURN_DEG`]) and where a chain meets the
 /// boundary; see the module documentation for the rules.
-pub fn detect_features(mesh: &TriMesh, angle_deg: f64) -> Vec<DetectedCurve> {
-    chain_edges(mesh, &feature_edges(mesh, angle_deg), |v| {
+/// `scale` (model units; 0 for none) is the length over which a turn must also be sharp.
+pub fn detect_features(mesh: &TriMesh, angle_deg: f64, scale: f64) -> Vec<DetectedCurve> {
+    chain_edges(mesh, &feature_edges(mesh, angle_deg), scale, |v| {
         mesh.is_boundary_vertex(v)
     })
 }
@@ -62,11 +66,12 @@ pub fn detect_features(mesh: &TriMesh, angle_deg: f64) -> Vec<DetectedCurve> {
 /// Every boundary loop as one closed curve, or split into open curves at its sharp corners
 /// ([`SHARP_TURN_DEG`]); see the module documentation for the rules. Curves run along the
 /// boundary halfedges (surface on the left).
-pub fn boundary_curves(mesh: &TriMesh) -> Vec<DetectedCurve> {
+/// `scale` as for [`detect_features`].
+pub fn boundary_curves(mesh: &TriMesh, scale: f64) -> Vec<DetectedCurve> {
     let edges: Vec<usize> = (0..mesh.n_edges())
         .filter(|&e| mesh.is_boundary_edge(e))
         .collect();
-    chain_edges(mesh, &edges, |_| false)
+    chain_edges(mesh, &edges, scale, |_| false)
 }
 
 /// Angle (radians) between the direction `p → v` and the direction `v → n`.
@@ -81,6 +86,7 @@ fn turn_angle(mesh: &TriMesh, p: usize, v: usize, n: usize) -> f64 {
 fn chain_edges(
     mesh: &TriMesh,
     edges: &[usize],
+    scale: f64,
     extra_split: impl Fn(usize) -> bool,
 ) -> Vec<DetectedCurve> {
     let nv = mesh.n_vertices();
@@ -99,10 +105,66 @@ fn chain_edges(
         if a == v { b } else { a }
     };
     let sharp = SHARP_TURN_DEG.to_radians();
+    // The chain's vertices from v along e, up to the first at least `scale` away (or where
+    // the chain ends or branches before that), with their distances along the chain.
+    let along = |v: usize, e: usize| -> Vec<(usize, f64)> {
+        let (mut cur, mut e, mut len) = (v, e, 0.0);
+        let mut out = Vec::new();
+        loop {
+            let next = other(e, cur);
+            len += (mesh.position(next) - mesh.position(cur)).length();
+            cur = next;
+            out.push((cur, len));
+            if len >= scale || cur == v {
+                return out;
+            }
+            match adj[cur].as_slice() {
+                &[a, b] => e = if a == e { b } else { a },
+                _ => return out,
+            }
+        }
+    };
+    // Per degree-2 vertex: its turn if it is a sharp one, at the vertex and between the
+    // chords to the points `scale` away.
+    let turn: Vec<Option<f64>> = (0..nv)
+        .map(|v| {
+            let &[e1, e2] = adj[v].as_slice() else {
+                return None;
+            };
+            let at_vertex = turn_angle(mesh, other(e1, v), v, other(e2, v));
+            if at_vertex <= sharp {
+                return None;
+            }
+            if scale <= 0.0 {
+                return Some(at_vertex);
+            }
+            let (p, n) = (along(v, e1), along(v, e2));
+            let (p, n) = (p[p.len() - 1].0, n[n.len() - 1].0);
+            if p == v || n == v || p == n {
+                return Some(at_vertex);
+            }
+            let t = turn_angle(mesh, p, v, n);
+            (t > sharp).then_some(t)
+        })
+        .collect();
+    // Of sharp turns closer than `scale` along the chain only the sharpest counts (the lower
+    // vertex number on a tie): two corners a fraction of a grid cell apart would be two
+    // lattice points on one.
+    let corner = |v: usize| -> bool {
+        let Some(t) = turn[v] else { return false };
+        if scale <= 0.0 {
+            return true;
+        }
+        adj[v].iter().all(|&e| {
+            along(v, e).into_iter().all(|(u, d)| {
+                u == v || d >= scale || turn[u].is_none_or(|tu| tu < t || (tu == t && u > v))
+            })
+        })
+    };
     let split: Vec<bool> = (0..nv)
         .map(|v| match adj[v].as_slice() {
             [] => false,
-            &[e1, e2] => extra_split(v) || turn_angle(mesh, other(e1, v), v, other(e2, v)) > sharp,
+            &[_, _] => extra_split(v) || corner(v),
             _ => true,
         })
         .collect();
@@ -288,7 +350,7 @@ mod tests {
         let m = cube(2);
         let fe = feature_edges(&m, 40.0);
         assert_eq!(fe.len(), 12 * 4);
-        let curves = detect_features(&m, 40.0);
+        let curves = detect_features(&m, 40.0, 0.0);
         assert_eq!(curves.len(), 12);
         for c in &curves {
             assert!(!c.closed);
@@ -311,15 +373,15 @@ mod tests {
             .collect();
         assert!(smallest.windows(2).all(|w| w[0] < w[1]), "{smallest:?}");
         // Deterministic.
-        assert_eq!(curves, detect_features(&m, 40.0));
+        assert_eq!(curves, detect_features(&m, 40.0, 0.0));
         // Above 90° nothing is a feature.
-        assert!(detect_features(&m, 91.0).is_empty());
+        assert!(detect_features(&m, 91.0, 0.0).is_empty());
     }
 
     #[test]
     fn unsubdivided_cube_edges_are_single_edge_curves() {
         let m = cube(0);
-        let curves = detect_features(&m, 40.0);
+        let curves = detect_features(&m, 40.0, 0.0);
         assert_eq!(curves.len(), 12);
         assert!(curves.iter().all(|c| !c.closed && c.vertices.len() == 2));
         assert_covers(&m, &curves, &feature_edges(&m, 40.0));
@@ -329,7 +391,7 @@ mod tests {
     fn flat_grid_has_no_features() {
         let m = generate::grid(6, 4, 3.0, 2.0);
         assert!(feature_edges(&m, 1.0).is_empty());
-        assert!(detect_features(&m, 1.0).is_empty());
+        assert!(detect_features(&m, 1.0, 0.0).is_empty());
     }
 
     #[test]
@@ -337,7 +399,7 @@ mod tests {
         let m = capped_cylinder(16);
         let fe = feature_edges(&m, 40.0);
         assert_eq!(fe.len(), 32);
-        let curves = detect_features(&m, 40.0);
+        let curves = detect_features(&m, 40.0, 0.0);
         assert_eq!(curves.len(), 2);
         assert!(curves.iter().all(|c| c.closed && c.vertices.len() == 16));
         assert_covers(&m, &curves, &fe);
@@ -361,7 +423,7 @@ mod tests {
         m.set_positions(p);
         let fe = feature_edges(&m, 40.0);
         assert_eq!(fe.len(), 3);
-        let curves = detect_features(&m, 40.0);
+        let curves = detect_features(&m, 40.0, 0.0);
         assert_eq!(curves.len(), 1);
         let c = &curves[0];
         assert!(!c.closed);
@@ -390,7 +452,7 @@ mod tests {
         let m = TriMesh::from_triangles(p, (1..5).map(|i| [0, i, i + 1]).collect()).unwrap();
         let fe = feature_edges(&m, 40.0);
         assert_eq!(fe.len(), 2);
-        let curves = detect_features(&m, 40.0);
+        let curves = detect_features(&m, 40.0, 0.0);
         assert_eq!(curves.len(), 2, "{curves:?}");
         for c in &curves {
             assert!(
@@ -405,7 +467,7 @@ mod tests {
     fn grid_boundary_splits_at_its_corners() {
         let (nx, ny) = (5, 3);
         let m = generate::grid(nx, ny, 5.0, 3.0);
-        let curves = boundary_curves(&m);
+        let curves = boundary_curves(&m, 0.0);
         assert_eq!(curves.len(), 4);
         let corners = [0, nx, (nx + 1) * ny, (nx + 1) * (ny + 1) - 1];
         let mut lengths: Vec<usize> = curves.iter().map(|c| c.vertices.len()).collect();
@@ -424,10 +486,64 @@ mod tests {
         assert_covers(&m, &curves, &boundary_edges(&m));
     }
 
+    /// A disc fanned from its centre whose boundary zigzags (radius 1 and 0.93 in turn, 60
+    /// points): every boundary vertex turns by more than 50°, the boundary as a whole by 6°.
+    fn zigzag_disc() -> TriMesh {
+        let n = 60;
+        let mut p = vec![DVec3::ZERO];
+        for k in 0..n {
+            let t = std::f64::consts::TAU * k as f64 / n as f64;
+            let r = if k % 2 == 0 { 1.0 } else { 0.93 };
+            p.push(DVec3::new(r * t.cos(), r * t.sin(), 0.0));
+        }
+        let t = (1..=n as u32)
+            .map(|i| [0, i, if i == n as u32 { 1 } else { i + 1 }])
+            .collect();
+        TriMesh::from_triangles(p, t).unwrap()
+    }
+
+    #[test]
+    fn a_zigzag_below_the_scale_is_no_corner() {
+        let m = zigzag_disc();
+        let at_vertex = boundary_curves(&m, 0.0);
+        assert!(at_vertex.len() > 20, "{} curves", at_vertex.len());
+        let curves = boundary_curves(&m, 0.4);
+        assert_eq!(curves.len(), 1, "{curves:?}");
+        assert!(curves[0].closed && curves[0].vertices.len() == 60);
+        assert_covers(&m, &curves, &boundary_edges(&m));
+    }
+
+    #[test]
+    fn close_corners_split_once_at_the_sharpest() {
+        // A triangle of side 5 whose corner at the origin is cut off by a chamfer a 50th of a
+        // side long: its two ends turn by 60° each (sharp at the vertex); at the scale of a
+        // side only the sharper one is a corner, so the curves are three as for the triangle.
+        let h = 3f64.sqrt() / 2.0;
+        let p = vec![
+            DVec3::new(0.1, 0.0, 0.0),
+            DVec3::new(5.0, 0.0, 0.0),
+            DVec3::new(2.5, 5.0 * h, 0.0),
+            DVec3::new(0.05, 0.1 * h, 0.0),
+            DVec3::new(2.5, 1.4, 0.0),
+        ];
+        let t = (0..4u32).map(|i| [4, i, (i + 1) % 4]).collect();
+        let m = TriMesh::from_triangles(p, t).unwrap();
+        let at_vertex = boundary_curves(&m, 0.0);
+        assert_eq!(at_vertex.len(), 4, "{at_vertex:?}");
+        let curves = boundary_curves(&m, 1.0);
+        assert_eq!(curves.len(), 3, "{curves:?}");
+        let ends: Vec<usize> = curves.iter().map(|c| c.vertices[0]).collect();
+        assert!(
+            ends.contains(&0) != ends.contains(&3),
+            "one chamfer end: {ends:?}"
+        );
+        assert_covers(&m, &curves, &boundary_edges(&m));
+    }
+
     #[test]
     fn disc_boundary_is_one_closed_curve() {
         let m = generate::disc(1.0, 6);
-        let curves = boundary_curves(&m);
+        let curves = boundary_curves(&m, 0.0);
         assert_eq!(curves.len(), 1);
         assert!(curves[0].closed);
         assert_eq!(curves[0].vertices.len(), 24);
@@ -437,12 +553,12 @@ mod tests {
     #[test]
     fn cylinder_boundary_is_two_closed_curves() {
         let m = generate::cylinder(1.0, 2.0, 12, 4);
-        let curves = boundary_curves(&m);
+        let curves = boundary_curves(&m, 0.0);
         assert_eq!(curves.len(), 2);
         assert!(curves.iter().all(|c| c.closed && c.vertices.len() == 12));
         assert_covers(&m, &curves, &boundary_edges(&m));
         // A closed mesh has no boundary curves.
-        assert!(boundary_curves(&cube(1)).is_empty());
+        assert!(boundary_curves(&cube(1), 0.0).is_empty());
     }
 
     #[test]
@@ -450,7 +566,7 @@ mod tests {
         let m = teardrop();
         let n_boundary = boundary_edges(&m).len();
         assert_eq!(n_boundary, 22);
-        let curves = boundary_curves(&m);
+        let curves = boundary_curves(&m, 0.0);
         assert_eq!(curves.len(), 2, "{curves:?}");
         let (a, b) = (&curves[0], &curves[1]);
         assert!(!a.closed && !b.closed);

@@ -515,7 +515,9 @@ impl Base {
     fn design_alignment(&self, state: &EditState) -> Vec<(u32, f64)> {
         let n = self.settings.symmetry as f64;
         let mut sum: BTreeMap<usize, (f64, f64)> = BTreeMap::new();
-        for a in crate::constraint::alignment(&self.mesh, state.curves.values()) {
+        for a in
+            crate::constraint::alignment(&self.mesh, state.curves.values(), self.grid_size() / 2.0)
+        {
             let alpha = self.bases.angle_of(a.face, a.direction);
             let e = sum.entry(a.face).or_insert((0.0, 0.0));
             e.0 += (n * alpha).cos();

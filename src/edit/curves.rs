@@ -119,13 +119,13 @@ impl Base {
                 replace_origin(
                     &mut next,
                     CurveOrigin::Feature,
-                    detect_features(self.mesh(), *angle_deg),
+                    detect_features(self.mesh(), *angle_deg, self.grid_size()),
                 );
                 Ok(next)
             }
             Edit::AlignBoundary { on } => {
                 let found = if *on {
-                    boundary_curves(self.mesh())
+                    boundary_curves(self.mesh(), self.grid_size())
                 } else {
                     Vec::new()
                 };

@@ -58,6 +58,9 @@ pub struct CurveFit {
     pub max_offset: f64,
     /// Branch points on the curve.
     pub singular_vertices: Vec<usize>,
+    /// Vertices the line does not hold: tips of ears (a vertex whose two neighbours on the
+    /// curve share a face with it), which one line through all three would fold.
+    pub ear_tips: Vec<usize>,
 }
 
 /// Largest factor the equations' rational coefficients need to become integers (branch points
@@ -256,6 +259,31 @@ pub(crate) struct Traced {
     singular_on: Vec<Vec<usize>>,
     /// Per curve: (vertex, corner, chart) of every emission, to report the fit.
     emits: Vec<Vec<(usize, usize, Aff)>>,
+    /// Per curve its ear tips ([`is_ear_tip`]), which its line does not hold.
+    ears: Vec<Vec<usize>>,
+}
+
+/// Whether the vertex at position `i` of a piece is the tip of an ear: it and its two
+/// neighbours on the piece are the corners of one face (a scanned boundary's notch, a drawn
+/// curve around a single triangle). One line through all three corners would give that face
+/// zero area, a fold no motion of the other vertices undoes; the tip is left off the line
+/// instead, and the line runs along the face's third edge.
+fn is_ear_tip(mesh: &TriMesh, verts: &[usize], closed: bool, i: usize) -> bool {
+    let nv = verts.len();
+    let (prev, next) = if closed {
+        (verts[(i + nv - 1) % nv], verts[(i + 1) % nv])
+    } else if i > 0 && i + 1 < nv {
+        (verts[i - 1], verts[i + 1])
+    } else {
+        return false;
+    };
+    let m = verts[i];
+    nv >= 3
+        && prev != next
+        && mesh.outgoing(m).any(|h| {
+            let f = [h, mesh.next(h), mesh.next(mesh.next(h))].map(|g| mesh.from(g));
+            f.contains(&prev) && f.contains(&next)
+        })
 }
 
 /// An integer equation Σ a_k w_k = 0, sparse.
@@ -322,6 +350,7 @@ impl Traced {
             geometric: pieces.iter().map(|p| curves[p.curve].geometric).collect(),
             singular_on: Vec::new(),
             emits: Vec::new(),
+            ears: Vec::new(),
         };
         // Per curve: forms at its emissions.
         let mut fixed_rows: Vec<(Form, usize)> = Vec::new();
@@ -353,7 +382,9 @@ impl Traced {
             let mut start_m: Option<[f64; 2]> = None;
             let mut singular_on = Vec::new();
             let mut emits = Vec::new();
-            for e in &walk.emits {
+            let mut ears = Vec::new();
+            let nv = c.vertices.len();
+            for (i, e) in walk.emits.iter().enumerate() {
                 let n = apply(rots.get(e.chart.rot as i64), n0);
                 // Value of the line in this chart: s c + nᵀ t(W).
                 let mut form = lin_form(&e.chart.lin, n, lines);
@@ -403,6 +434,12 @@ impl Traced {
                 if start_m.is_none() {
                     start_m = Some(m);
                 }
+                if c.geometric && is_ear_tip(mesh, c.vertices, c.closed, i % nv) {
+                    if !e.closing {
+                        ears.push(v);
+                    }
+                    continue;
+                }
                 out.at_vertex.entry(v).or_default().push(VertexLine {
                     curve: ci,
                     geometric: c.geometric,
@@ -414,6 +451,7 @@ impl Traced {
             out.family.push(lambda as u8);
             out.singular_on.push(singular_on);
             out.emits.push(emits);
+            out.ears.push(ears);
         }
         // Integer equations: fixed values on lines, and lines of one family meeting.
         let mut rows: Vec<(Form, Vec<usize>)> =
@@ -642,6 +680,7 @@ impl Traced {
                 let value = self.lines.spacing * w[2 * ng + ci];
                 let max_offset = self.emits[ci]
                     .iter()
+                    .filter(|(v, _, _)| !self.ears[ci].contains(v))
                     .map(|(_, corner, chart)| {
                         let n = apply(rots.get(chart.rot as i64), n0);
                         let t = chart.lin.eval(&gaps);
@@ -657,6 +696,7 @@ impl Traced {
                     value,
                     max_offset,
                     singular_vertices: self.singular_on[ci].clone(),
+                    ear_tips: self.ears[ci].clone(),
                 }
             })
             .collect()
@@ -683,6 +723,94 @@ struct Piece {
 /// at a branch point is a contradiction (no line passes straight through it). Each curve is
 /// oriented so that its left faces exist (the reversed one along a boundary with the surface on
 /// its right).
+/// Runs of a jagged curve shorter than [`SHORT_RUN`] cells along their line, as the field maps them: the
+/// lines bounding such a run (its neighbours' lines, of the other family) round to one value,
+/// which collapses the run to a point and its faces to zero area (a scanned boundary's
+/// staircase). They are given to a neighbour's family instead, shortest first, so the
+/// staircase becomes one line; the curve then crosses the field there for less than half a
+/// cell.
+const SHORT_RUN: f64 = 0.5;
+
+/// Reassigns the edges of short runs (see [`SHORT_RUN`]) to a neighbouring run's family;
+/// `back[i]` is edge i's image in the first chart. A curve of one run is left alone.
+fn merge_short_runs(classes: &mut [usize], back: &[[f64; 2]], closed: bool, lines: &Lines) {
+    let ne = classes.len();
+    loop {
+        // Maximal runs as (first edge, length), cyclic for closed curves.
+        let start = if closed {
+            match (0..ne).find(|&j| classes[j] != classes[(j + ne - 1) % ne]) {
+                Some(j) => j,
+                None => return,
+            }
+        } else {
+            0
+        };
+        let mut runs: Vec<(usize, usize)> = Vec::new();
+        let mut k = 0;
+        while k < ne {
+            let first = (start + k) % ne;
+            let mut len = 1;
+            while k + len < ne && classes[(start + k + len) % ne] == classes[first] {
+                len += 1;
+            }
+            runs.push((first, len));
+            k += len;
+        }
+        if runs.len() < 2 {
+            return;
+        }
+        // How far the run goes along its own line: the distance between the lines of the
+        // other family that bound it.
+        let extent = |&(first, len): &(usize, usize)| {
+            let mut d = [0.0, 0.0];
+            for i in 0..len {
+                let e = back[(first + i) % ne];
+                d[0] += e[0];
+                d[1] += e[1];
+            }
+            let n = lines.normals[classes[first]];
+            (n[1] * d[0] - n[0] * d[1]).abs()
+        };
+        let Some((r, _)) = runs
+            .iter()
+            .enumerate()
+            .map(|(r, run)| (r, extent(run)))
+            .filter(|&(_, x)| x < SHORT_RUN)
+            .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+        else {
+            return;
+        };
+        let nr = runs.len();
+        let neighbours: Vec<usize> = if closed {
+            vec![(r + nr - 1) % nr, (r + 1) % nr]
+        } else {
+            [r.checked_sub(1), (r + 1 < nr).then_some(r + 1)]
+                .into_iter()
+                .flatten()
+                .collect()
+        };
+        // The neighbour family the run's own direction crosses least.
+        let (first, len) = runs[r];
+        let mut d = [0.0, 0.0];
+        for i in 0..len {
+            let e = back[(first + i) % ne];
+            d[0] += e[0];
+            d[1] += e[1];
+        }
+        let family = neighbours
+            .iter()
+            .map(|&q| classes[runs[q].0])
+            .min_by(|&a, &b| {
+                let f = |l: usize| (lines.normals[l][0] * d[0] + lines.normals[l][1] * d[1]).abs();
+                f(a).total_cmp(&f(b)).then(a.cmp(&b))
+            })
+            .expect("a curve of two runs or more has a neighbour run");
+        for i in 0..len {
+            classes[(first + i) % ne] = family;
+        }
+    }
+}
+
 fn split_by_family(
     mesh: &TriMesh,
     cut: &CutGraph,
@@ -737,7 +865,10 @@ fn split_by_family(
                 })
                 .expect("a family")
         };
-        let classes: Vec<usize> = (0..ne).map(class).collect();
+        let mut classes: Vec<usize> = (0..ne).map(class).collect();
+        if c.geometric {
+            merge_short_runs(&mut classes, &back, c.closed, lines);
+        }
         // Edge i runs from verts[i] to verts[(i + 1) % len]; a split at vertex index j sits
         // between edges j − 1 and j.
         let nv = verts.len();
@@ -784,4 +915,68 @@ fn split_by_family(
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::generate;
+
+    #[test]
+    fn short_runs_of_a_staircase_join_their_neighbours() {
+        let lines = Lines::new(Lattice::Z2);
+        // Along u (family 1: normal (0, 1)) with steps of 0.2 along v, and one long step.
+        let back = [
+            [0.7, 0.0],
+            [0.0, -0.2],
+            [0.7, 0.0],
+            [0.0, -0.2],
+            [0.7, 0.0],
+            [0.0, -1.5],
+            [0.7, 0.0],
+        ];
+        let mut classes = vec![1, 0, 1, 0, 1, 0, 1];
+        merge_short_runs(&mut classes, &back, false, &lines);
+        assert_eq!(
+            classes,
+            vec![1, 1, 1, 1, 1, 0, 1],
+            "the long step stays a corner pair"
+        );
+        // Closed: a short run across the start joins too; a curve of one run is left alone.
+        let mut classes = vec![0, 1, 1, 1, 1, 1, 1];
+        merge_short_runs(&mut classes, &back, true, &lines);
+        assert_eq!(classes, vec![1; 7]);
+        let mut one = vec![0; 7];
+        merge_short_runs(&mut one, &back, false, &lines);
+        assert_eq!(one, vec![0; 7]);
+    }
+
+    #[test]
+    fn ear_tips_are_the_middle_corners_of_a_face() {
+        // 2 × 1 grid: vertices 0 1 2 / 3 4 5; its triangles split each square along a diagonal.
+        let m = generate::grid(2, 1, 2.0, 1.0);
+        let face_with = |a: usize, b: usize, c: usize| {
+            (0..m.n_faces()).any(|f| {
+                let v = m.face(f);
+                v.contains(&a) && v.contains(&b) && v.contains(&c)
+            })
+        };
+        // Along the bottom edge 0-1-2 no face holds all three; around a face, the middle one is
+        // a tip.
+        assert!(!is_ear_tip(&m, &[0, 1, 2], false, 1));
+        let tri: Vec<usize> = (0..6)
+            .flat_map(|a| (0..6).flat_map(move |b| (0..6).map(move |c| [a, b, c])))
+            .find(|&[a, b, c]| a != b && b != c && a != c && face_with(a, b, c))
+            .expect("a face")
+            .to_vec();
+        assert!(is_ear_tip(&m, &tri, false, 1));
+        assert!(
+            !is_ear_tip(&m, &tri, false, 0),
+            "an end of an open curve is no tip"
+        );
+        assert!(
+            is_ear_tip(&m, &tri, true, 0),
+            "on a closed curve every corner of it is"
+        );
+    }
 }
