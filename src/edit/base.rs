@@ -500,6 +500,7 @@ impl Base {
         );
         state.turns = turns;
         state.released.clear();
+        let mut state = self.snap_to_curves(state);
         for edit in std::mem::take(&mut state.history) {
             match self.apply(&state, &edit, cancel) {
                 Ok(next) => state = next,
@@ -508,6 +509,72 @@ impl Base {
             }
         }
         Ok(state)
+    }
+
+    /// Singularities the design leaves one edge off a geometric curve move onto it (to the
+    /// nearest curve vertex beside them that is neither singular nor on the boundary). One
+    /// edge is a fraction of a grid cell: rounded, such a branch point lands either on the
+    /// curve's line, which collapses the faces between them, or a whole lattice step away from
+    /// it, which stretches them by the cell's size; on the curve it is a corner of the line
+    /// (eq. 4.9) and neither happens. Then opposite singularities on curves closer than the
+    /// cancellation radius cancel. Vertices in order, so replay stays bit-identical.
+    fn snap_to_curves(&self, mut state: EditState) -> EditState {
+        let nv = self.mesh.n_vertices();
+        let mut on_curve = vec![false; nv];
+        for c in state.curves.values() {
+            if c.kind == crate::constraint::CurveKind::Geometric {
+                for &v in &c.vertices {
+                    on_curve[v] = true;
+                }
+            }
+        }
+        let mut search = PathSearch::new(nv);
+        let singular: Vec<usize> = state.singularities.keys().copied().collect();
+        for p in singular {
+            if on_curve[p] || !state.singularities.contains_key(&p) {
+                continue;
+            }
+            let dist = |q: usize| (self.mesh.position(q) - self.mesh.position(p)).length();
+            let target = self
+                .mesh
+                .outgoing(p)
+                .map(|h| self.mesh.to(h))
+                .filter(|&q| {
+                    on_curve[q]
+                        && !self.mesh.is_boundary_vertex(q)
+                        && !state.singularities.contains_key(&q)
+                })
+                .min_by(|&a, &b| dist(a).total_cmp(&dist(b)).then(a.cmp(&b)));
+            let Some(q) = target else { continue };
+            if let Ok(mv) = self.plan(&state, &mut search, p, q) {
+                state = self.commit(&state, &mv);
+            }
+        }
+        // Opposite ones on curves closer than the cancellation radius cancel, as the field's
+        // pairs do (sec. 3.3): on one line a fraction of a cell apart they fold the faces
+        // between them.
+        let radius = self.settings.cancel_pairs_within * self.grid_size();
+        let singular: Vec<usize> = state.singularities.keys().copied().collect();
+        for p in singular {
+            let Some(&k) = state.singularities.get(&p) else {
+                continue;
+            };
+            if !on_curve[p] {
+                continue;
+            }
+            let dist = |q: usize| (self.mesh.position(q) - self.mesh.position(p)).length();
+            let partner = state
+                .singularities
+                .iter()
+                .filter(|&(&q, &kq)| q != p && kq == -k && on_curve[q] && dist(q) < radius)
+                .map(|(&q, _)| q)
+                .min_by(|&a, &b| dist(a).total_cmp(&dist(b)).then(a.cmp(&b)));
+            let Some(q) = partner else { continue };
+            if let Ok(mv) = self.plan(&state, &mut search, p, q) {
+                state = self.commit(&state, &mv);
+            }
+        }
+        state
     }
 
     /// Per face along a geometric curve the direction the design holds it to: the curve edges'

@@ -16,12 +16,12 @@
 //! C_c w = 0 ([`super::integer`]); the global step then runs with the geometric equations
 //! eliminated ([`super::constrained`]).
 //!
-//! A geometric curve is split into runs where the field's line family along it changes at a
-//! regular vertex (the curve turns a grid corner there). Contradictions are reported with the
-//! curves involved: a change of line family at a branch point (no line passes straight
-//! through one), a closed curve whose line family turns on the way round (the singularities it
-//! encloses rotate the lattice: it cannot close as one line), a curve along the boundary with
-//! the surface on either side in turn.
+//! A geometric curve is split into runs where the field's line family along it changes (the
+//! curve turns a grid corner there, at a regular vertex or a branch point; runs shorter than
+//! half a cell join their neighbours). Contradictions are reported with the curves involved: a
+//! closed curve whose line family turns on the way round (the singularities it encloses rotate
+//! the lattice: it cannot close as one line), a curve along the boundary with the surface on
+//! either side in turn.
 
 use std::collections::BTreeMap;
 
@@ -718,9 +718,9 @@ struct Piece {
     closed: bool,
 }
 
-/// Splits geometric curves where the field's line family along them changes at a regular vertex
-/// (the curve turns a corner of the grid there: the vertex lands on a lattice point); a change
-/// at a branch point is a contradiction (no line passes straight through it). Each curve is
+/// Splits geometric curves where the field's line family along them changes (the curve turns a
+/// corner of the grid there: the vertex lands on a lattice point; at a branch point the cone
+/// angle splits into both sides' multiples of 2π/N). Each curve is
 /// oriented so that its left faces exist (the reversed one along a boundary with the surface on
 /// its right).
 /// Runs of a jagged curve shorter than [`SHORT_RUN`] cells along their line, as the field maps them: the
@@ -884,17 +884,10 @@ fn split_by_family(
             });
             continue;
         }
-        if let Some(&j) = splits.iter().find(|&&j| cut.singular[verts[j % nv]]) {
-            return Err(contradiction(
-                ids,
-                &[ci],
-                format!(
-                    "curve {} cannot be one parameter line: its line family changes at the singularity at vertex {} (no parameter line passes straight through a singularity)",
-                    c.id,
-                    verts[j % nv]
-                ),
-            ));
-        }
+        // A change at a branch point is a corner there as at a regular vertex: both runs end
+        // on it, and each gives an integer equation (eq. 4.9) putting its lattice point on the
+        // run's line. The cone angle splits into the two sides' multiples of 2π/N (a +1/4
+        // singularity on a straight crease: 90° on one side, 180° on the other).
         let cyc = |k: usize| verts[k % nv];
         let bounds: Vec<usize> = if c.closed {
             let mut b = splits.clone();
