@@ -42,7 +42,6 @@ pub fn alignment<'a>(
         };
         // The curve's point at least `scale` beyond segment i's end (`forward`) or start.
         let reach = |i: usize, forward: bool| -> usize {
-            let (a, b) = segments[i];
             let mut len = 0.0;
             let mut j = i;
             for _ in 1..m {
@@ -67,9 +66,7 @@ pub fn alignment<'a>(
                 j = next;
                 len += length(j);
             }
-            if j == i {
-                if forward { b } else { a }
-            } else if forward {
+            if forward {
                 segments[j].1
             } else {
                 segments[j].0

@@ -281,7 +281,7 @@ fn is_ear_tip(mesh: &TriMesh, verts: &[usize], closed: bool, i: usize) -> bool {
     nv >= 3
         && prev != next
         && mesh.outgoing(m).any(|h| {
-            let f = [h, mesh.next(h), mesh.next(mesh.next(h))].map(|g| mesh.from(g));
+            let f = mesh.face(mesh.face_of(h));
             f.contains(&prev) && f.contains(&next)
         })
 }
@@ -718,13 +718,9 @@ struct Piece {
     closed: bool,
 }
 
-/// Splits geometric curves where the field's line family along them changes (the curve turns a
-/// corner of the grid there: the vertex lands on a lattice point; at a branch point the cone
-/// angle splits into both sides' multiples of 2π/N). Each curve is
-/// oriented so that its left faces exist (the reversed one along a boundary with the surface on
-/// its right).
-/// Runs of a jagged curve shorter than [`SHORT_RUN`] cells along their line, as the field maps them: the
-/// lines bounding such a run (its neighbours' lines, of the other family) round to one value,
+/// Runs of a jagged curve shorter than [`SHORT_RUN`] cells along their line, as the field maps
+/// them: the lines bounding such a run (its neighbours' lines, of the other family) round to one
+/// value,
 /// which collapses the run to a point and its faces to zero area (a scanned boundary's
 /// staircase). They are given to a neighbour's family instead, shortest first, so the
 /// staircase becomes one line; the curve then crosses the field there for less than half a
@@ -735,6 +731,13 @@ const SHORT_RUN: f64 = 0.5;
 /// `back[i]` is edge i's image in the first chart. A curve of one run is left alone.
 fn merge_short_runs(classes: &mut [usize], back: &[[f64; 2]], closed: bool, lines: &Lines) {
     let ne = classes.len();
+    // The image of a run (first edge, length): the sum of its edges'.
+    let image = |(first, len): (usize, usize)| {
+        (0..len).fold([0.0, 0.0], |d, i| {
+            let e = back[(first + i) % ne];
+            [d[0] + e[0], d[1] + e[1]]
+        })
+    };
     loop {
         // Maximal runs as (first edge, length), cyclic for closed curves.
         let start = if closed {
@@ -761,14 +764,8 @@ fn merge_short_runs(classes: &mut [usize], back: &[[f64; 2]], closed: bool, line
         }
         // How far the run goes along its own line: the distance between the lines of the
         // other family that bound it.
-        let extent = |&(first, len): &(usize, usize)| {
-            let mut d = [0.0, 0.0];
-            for i in 0..len {
-                let e = back[(first + i) % ne];
-                d[0] += e[0];
-                d[1] += e[1];
-            }
-            let n = lines.normals[classes[first]];
+        let extent = |&run: &(usize, usize)| {
+            let (d, n) = (image(run), lines.normals[classes[run.0]]);
             (n[1] * d[0] - n[0] * d[1]).abs()
         };
         let Some((r, _)) = runs
@@ -791,12 +788,7 @@ fn merge_short_runs(classes: &mut [usize], back: &[[f64; 2]], closed: bool, line
         };
         // The neighbour family the run's own direction crosses least.
         let (first, len) = runs[r];
-        let mut d = [0.0, 0.0];
-        for i in 0..len {
-            let e = back[(first + i) % ne];
-            d[0] += e[0];
-            d[1] += e[1];
-        }
+        let d = image(runs[r]);
         let family = neighbours
             .iter()
             .map(|&q| classes[runs[q].0])
@@ -811,6 +803,10 @@ fn merge_short_runs(classes: &mut [usize], back: &[[f64; 2]], closed: bool, line
     }
 }
 
+/// Splits geometric curves where the field's line family along them changes (the curve turns a
+/// corner of the grid there: the vertex lands on a lattice point; at a branch point the cone
+/// angle splits into both sides' multiples of 2π/N). Each curve is oriented so that its left
+/// faces exist (the reversed one along a boundary with the surface on its right).
 fn split_by_family(
     mesh: &TriMesh,
     cut: &CutGraph,
