@@ -135,15 +135,59 @@ fn rotated_transition() {
         assert_manifold(&b);
         let q = quality(&b, &mesh);
         println!("rotated s={s} rot={rot}\n{q}");
-        if s.fract() == 0.0 {
-            assert_eq!(a.positions.len(), b.positions.len());
-            assert_eq!(a.faces.len(), b.faces.len());
-            assert_eq!(q.faces_by_sides.len(), 1);
-        }
-        // (At s = 4.8 the input corners lie on iso-lines; the symbolic perturbation then
-        // depends on the charts, so counts may differ by a boundary vertex.)
+        assert_eq!(a.positions.len(), b.positions.len());
+        assert_eq!(a.faces.len(), b.faces.len());
+        assert_eq!(q.faces_by_sides.len(), 1);
+        assert_eq!(b.patched_places, 0);
         assert_eq!(q.irregular_vertices, 0);
         assert_eq!(euler(&b), 1);
+    }
+}
+
+/// Every boundary edge on a grid line, its vertices mostly between lattice points (0.4 apart),
+/// and a rotated chart whose cut runs through such vertices: the two ends of a boundary edge
+/// then have symbolic perturbations in different charts. The remesh must be the plain chart's
+/// 4 × 4 quads, its boundary the input's, with nothing patched (the ends used to disagree on
+/// which side of the edge the grid line runs, and the faces there were patched).
+#[test]
+fn boundary_on_grid_lines_across_a_rotated_chart() {
+    let mesh = generate::grid(10, 10, 1.0, 1.0);
+    let s = 4.0;
+    let plain = vertex_uvs(&mesh, |p| [s * p.x, s * p.y]);
+    let a = extract(&mesh, &plain, 4, &ExtractOptions::default()).unwrap();
+    assert_eq!(
+        (a.positions.len(), a.faces.len(), a.patched_places),
+        (25, 16, 0)
+    );
+    for cut in [0.3, 0.5, 0.7] {
+        for rot in 1..4 {
+            let mut uv = Vec::new();
+            for (f, t) in mesh.faces().iter().enumerate() {
+                let c = mesh.face_centroid(f);
+                for &v in t {
+                    let p = mesh.position(v as usize);
+                    let (mut x, mut y) = (s * p.x, s * p.y);
+                    if c.x > cut {
+                        for _ in 0..rot {
+                            (x, y) = (-y, x);
+                        }
+                        x += 7.0;
+                        y -= 3.0;
+                    }
+                    uv.push([x, y]);
+                }
+            }
+            let b = extract(&mesh, &uv, 4, &ExtractOptions::default()).unwrap();
+            let case = format!("cut at {cut}, chart rotated {rot} quarter turns");
+            assert_eq!(b.patched_places, 0, "{case}");
+            assert_manifold(&b);
+            assert_eq!(b.positions.len(), 25, "{case}");
+            assert_eq!(b.faces.len(), 16, "{case}");
+            assert!(b.faces.iter().all(|f| f.len() == 4), "{case}");
+            let q = quality(&b, &mesh);
+            assert_eq!(q.boundary_vertices, 16, "{case}");
+            assert_eq!(q.irregular_vertices, 0, "{case}");
+        }
     }
 }
 

@@ -26,6 +26,8 @@ pub struct Param<'a> {
     pub on_lattice: Vec<bool>,
     /// Per corner: rotation from the vertex's reference corner chart to this corner's chart.
     pub corner_rot: Vec<u8>,
+    /// Per vertex: its symbolic perturbation in its reference corner's chart (`perturbation`).
+    pert: Vec<DVec2>,
     /// Per face: positively oriented, non-degenerate in lattice space.
     pub face_ok: Vec<bool>,
     /// Lattice directions in counter-clockwise order; `dirs[i + n/2] = -dirs[i]`.
@@ -78,6 +80,53 @@ fn from_uv(n: u8, p: [f64; 2]) -> DVec2 {
     } else {
         DVec2::new(p[0], p[1])
     }
+}
+
+/// Per vertex, in its reference corner's chart: the direction its symbolic perturbation moves it
+/// (`Param::left`). Generic (off every lattice direction) for most vertices. A vertex at the end
+/// of a boundary edge that lies on a lattice line moves into the surface instead, the line thus
+/// just outside: a boundary on a grid line (aligned boundaries) is the remesh's boundary, joined
+/// by the boundary chain, and no grid edge runs along it. With generic perturbations the two ends
+/// of such an edge could fall on opposite sides, the line then crossing the boundary edge
+/// where no crossing is made, and the faces there were patched.
+fn perturbations(
+    mesh: &TriMesh,
+    lat: &[DVec2],
+    n: u8,
+    dirs: &[[i64; 2]],
+    corner_rot: &[u8],
+) -> Vec<DVec2> {
+    let generic = DVec2::new(1.0, 0.618_033_988_749_894_8);
+    let on_int = |x: f64| (x - x.round()).abs() <= 1e-9;
+    let mut inward = vec![DVec2::ZERO; mesh.n_vertices()];
+    for h in 0..mesh.n_halfedges() {
+        if mesh.twin(h).is_some() {
+            continue;
+        }
+        let (a, b) = (lat[h], lat[mesh.next(h)]);
+        let Some(&d) = dirs[..(n as usize / 2).max(1)]
+            .iter()
+            .find(|&&d| cross(dv(d), b - a).abs() <= 1e-9 && on_int(cross(dv(d), a)))
+        else {
+            continue;
+        };
+        let e = if dv(d).dot(b - a) < 0.0 {
+            -dv(d)
+        } else {
+            dv(d)
+        };
+        // Left of the halfedge is inside; the tangential part keeps it off every lattice
+        // direction (at a corner of two such edges the sum is inside both).
+        let into = rot1(n, e) + 0.381_966_011_250_105 * e;
+        for c in [h, mesh.next(h)] {
+            let back = (n - corner_rot[c] % n) % n;
+            inward[mesh.from(c)] += rot(n, back, into);
+        }
+    }
+    inward
+        .into_iter()
+        .map(|w| if w == DVec2::ZERO { generic } else { w })
+        .collect()
 }
 
 fn snap(x: f64, tol: f64) -> f64 {
@@ -163,6 +212,7 @@ impl<'a> Param<'a> {
                 prev = Some(h);
             }
         }
+        let pert = perturbations(mesh, &lat, n, &dirs, &corner_rot);
         let face_ok = (0..mesh.n_faces())
             .map(|f| {
                 let (a, b, c) = (lat[3 * f], lat[3 * f + 1], lat[3 * f + 2]);
@@ -178,6 +228,7 @@ impl<'a> Param<'a> {
             trans,
             on_lattice,
             corner_rot,
+            pert,
             face_ok,
             dirs,
             tol,
@@ -196,11 +247,7 @@ impl<'a> Param<'a> {
 
     /// The symbolic perturbation of the vertex at corner `c`, in that corner's chart.
     pub fn perturbation(&self, c: usize) -> DVec2 {
-        rot(
-            self.n,
-            self.corner_rot[c],
-            DVec2::new(1.0, 0.618_033_988_749_894_8),
-        )
+        rot(self.n, self.corner_rot[c], self.pert[self.mesh.from(c)])
     }
 
     /// Whether corner `c` (lattice point `p` in its face's chart) is on the left of the line
@@ -212,6 +259,29 @@ impl<'a> Param<'a> {
         if val.abs() > 1e-9 {
             return val > 0.0;
         }
-        cross(dd, self.perturbation(c)) > 0.0
+        cross(dd, self.perturbation(self.side_corner(c, q, dd))) > 0.0
+    }
+
+    /// The corner whose perturbation puts corner `c` (on the line through `q` along `dd`) on a
+    /// side. A vertex on a lattice point is a grid point: it stays where it is. When the line
+    /// runs along an edge of `c`'s face that ends there, the edge moves as a whole, by its other
+    /// end's perturbation (both ends on lattice points: the lower-numbered vertex's), so every
+    /// grid point on the edge, and the vertices at its ends, see the grid edge along it on one
+    /// and the same side. With each end perturbed by its own displacement the ends disagreed: on
+    /// a boundary edge along a grid line (aligned boundaries, creases) one end had a slot along
+    /// the edge and the other none, and the face there was patched.
+    fn side_corner(&self, c: usize, q: DVec2, dd: DVec2) -> usize {
+        let mesh = self.mesh;
+        let v = mesh.from(c);
+        if !self.on_lattice[v] {
+            return c;
+        }
+        for n in [mesh.next(c), mesh.prev(c)] {
+            if cross(dd, self.lat[n] - q).abs() <= 1e-9 {
+                let w = mesh.from(n);
+                return if !self.on_lattice[w] || w < v { n } else { c };
+            }
+        }
+        c
     }
 }
