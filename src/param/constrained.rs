@@ -33,10 +33,37 @@ pub(crate) fn solve(
     w: &[[f64; 2]],
     fixes: &BTreeMap<usize, VertexFix>,
 ) -> Result<(Vec<[f64; 2]>, MapSpace), ParamError> {
+    ConstrainedStep::new(mesh, cut, global, rots, disk, fixes)?.solve(w, fixes)
+}
+
+/// The global step under vertex constraints, factored once. The matrix depends only on which
+/// components the constraints fix and along which normals, not on the gaps or the fixed values,
+/// so one factorization serves every rounding of the integer unknowns (the re-rounding under
+/// curves solves a dozen candidates per round).
+pub(crate) struct ConstrainedStep<'a> {
+    mesh: &'a TriMesh,
+    cut: &'a CutGraph,
+    global: &'a GlobalSystem,
+    rots: &'a Rots,
+    disk: &'a [[DVec3; 2]],
+    /// Per vertex the basis Q (columns) of its unknowns.
+    q: Vec<M2>,
+    /// Per component (2v + i): fixed.
+    fixed: Vec<bool>,
+    solver: SpdSolver,
+}
+
+/// Per vertex the basis Q of its unknowns, and per component its fixed value (singular
+/// vertices: 0; the unconstrained step's pins replaced by what the lines leave free).
+fn layout(
+    mesh: &TriMesh,
+    cut: &CutGraph,
+    global: &GlobalSystem,
+    fixes: &BTreeMap<usize, VertexFix>,
+) -> (Vec<M2>, Vec<Option<f64>>) {
     let nv = mesh.n_vertices();
     let mut fixes = fixes.clone();
     pin_translations(mesh, cut, global, &mut fixes);
-    // Per vertex the basis Q (columns) of its unknowns and the fixed components.
     let mut q: Vec<M2> = vec![[1.0, 0.0, 0.0, 1.0]; nv];
     let mut fixed: Vec<Option<f64>> = vec![None; 2 * nv];
     for (&v, fix) in &fixes {
@@ -51,107 +78,178 @@ pub(crate) fn solve(
             }
         }
     }
-    let var_of = |c: usize| -> Option<usize> {
-        let v = mesh.from(c);
-        (!cut.singular[v]).then_some(v)
-    };
     for v in 0..nv {
         if cut.singular[v] {
             fixed[2 * v] = Some(0.0);
             fixed[2 * v + 1] = Some(0.0);
         }
     }
-    let targets = GlobalSystem::targets(mesh, disk);
-    let consts: Vec<[f64; 2]> = global.corner_lin.iter().map(|l| l.eval(w)).collect();
-    let mut b = SparseBuilder::<f64>::with_capacity(2 * nv, 2 * nv + 36 * mesh.n_faces());
-    let mut rhs = vec![0.0; 2 * nv];
-    for i in 0..2 * nv {
-        if fixed[i].is_some() {
-            b.add(i, i, 1.0);
-            rhs[i] = fixed[i].unwrap_or(0.0);
-        } else {
+    (q, fixed)
+}
+
+impl<'a> ConstrainedStep<'a> {
+    pub(crate) fn new(
+        mesh: &'a TriMesh,
+        cut: &'a CutGraph,
+        global: &'a GlobalSystem,
+        rots: &'a Rots,
+        disk: &'a [[DVec3; 2]],
+        fixes: &BTreeMap<usize, VertexFix>,
+    ) -> Result<Self, ParamError> {
+        let nv = mesh.n_vertices();
+        let (q, fixed) = layout(mesh, cut, global, fixes);
+        let mut b = SparseBuilder::<f64>::with_capacity(2 * nv, 2 * nv + 36 * mesh.n_faces());
+        for (i, f) in fixed.iter().enumerate() {
             // Explicit zero keeps every diagonal in the pattern.
-            b.add(i, i, 0.0);
+            b.add(i, i, if f.is_some() { 1.0 } else { 0.0 });
         }
-    }
-    for f in 0..mesh.n_faces() {
-        let k = stiffness(mesh, f);
-        for a in 0..3 {
-            let ca = 3 * f + a;
-            let Some(va) = var_of(ca) else { continue };
-            let ra = global.corner_rot[ca] as i64;
-            let qa_t = transpose(&q[va]);
-            // rhs: Q_aᵀ R^{-rot_a} (b_a − Σ_b k_ab c_b)
-            let mut r = targets[ca];
-            for bb in 0..3 {
-                let c = consts[3 * f + bb];
-                r[0] -= k[a][bb] * c[0];
-                r[1] -= k[a][bb] * c[1];
-            }
-            let r = apply(&qa_t, apply(rots.get(-ra), r));
-            for i in 0..2 {
-                if fixed[2 * va + i].is_none() {
-                    rhs[2 * va + i] += r[i];
-                }
-            }
-            for bb in 0..3 {
-                let cb = 3 * f + bb;
-                let Some(vb) = var_of(cb) else { continue };
-                let rb = global.corner_rot[cb] as i64;
-                let blk = mul(&qa_t, &mul(rots.get(rb - ra), &q[vb]));
-                for i in 0..2 {
-                    let row = 2 * va + i;
-                    if fixed[row].is_some() {
-                        continue;
-                    }
-                    for j in 0..2 {
-                        let col = 2 * vb + j;
-                        let val = k[a][bb] * blk[2 * i + j];
-                        match fixed[col] {
-                            Some(y) => rhs[row] -= val * y,
-                            None => b.add(row, col, val),
+        let var_of = |c: usize| -> Option<usize> {
+            let v = mesh.from(c);
+            (!cut.singular[v]).then_some(v)
+        };
+        for f in 0..mesh.n_faces() {
+            let k = stiffness(mesh, f);
+            for a in 0..3 {
+                let ca = 3 * f + a;
+                let Some(va) = var_of(ca) else { continue };
+                let ra = global.corner_rot[ca] as i64;
+                let qa_t = transpose(&q[va]);
+                for bb in 0..3 {
+                    let cb = 3 * f + bb;
+                    let Some(vb) = var_of(cb) else { continue };
+                    let rb = global.corner_rot[cb] as i64;
+                    let blk = mul(&qa_t, &mul(rots.get(rb - ra), &q[vb]));
+                    for i in 0..2 {
+                        let row = 2 * va + i;
+                        if fixed[row].is_some() {
+                            continue;
+                        }
+                        for j in 0..2 {
+                            let col = 2 * vb + j;
+                            if fixed[col].is_none() {
+                                b.add(row, col, k[a][bb] * blk[2 * i + j]);
+                            }
                         }
                     }
                 }
             }
         }
-    }
-    let matrix = b.build()?;
-    // The unconstrained system's ordering, a 2 × 2 block per vertex: no ordering is computed
-    // again (the pattern is the same vertex adjacency, each vertex doubled).
-    let analysis = match global.analysis().order() {
-        Some(order) => {
-            let blocks: Vec<usize> = order.iter().flat_map(|&v| [2 * v, 2 * v + 1]).collect();
-            Analysis::with_order(&matrix, &blocks)?
-        }
-        None => Analysis::new(&matrix)?,
-    };
-    let y = SpdSolver::with_analysis(analysis, &matrix)?.solve(&rhs)?;
-    let uv = (0..3 * mesh.n_faces())
-        .map(|c| {
-            let mut p = consts[c];
-            if let Some(v) = var_of(c) {
-                let x = apply(&q[v], [y[2 * v], y[2 * v + 1]]);
-                let x = apply(rots.get(global.corner_rot[c] as i64), x);
-                p[0] += x[0];
-                p[1] += x[1];
+        let matrix = b.build()?;
+        // The unconstrained system's ordering, a 2 × 2 block per vertex: no ordering is
+        // computed again (the pattern is the same vertex adjacency, each vertex doubled).
+        let analysis = match global.analysis().order() {
+            Some(order) => {
+                let blocks: Vec<usize> = order.iter().flat_map(|&v| [2 * v, 2 * v + 1]).collect();
+                Analysis::with_order(&matrix, &blocks)?
             }
-            p
+            None => Analysis::new(&matrix)?,
+        };
+        let solver = SpdSolver::with_analysis(analysis, &matrix)?;
+        Ok(ConstrainedStep {
+            mesh,
+            cut,
+            global,
+            rots,
+            disk,
+            q,
+            fixed: fixed.iter().map(Option::is_some).collect(),
+            solver,
         })
-        .collect();
-    // The maps the repair may move within: the same unknowns, the fixed components held.
-    let space = MapSpace {
-        var: (0..3 * mesh.n_faces())
-            .map(|c| var_of(c).map_or(NONE, |v| v as u32))
-            .collect(),
-        consts,
-        rot: global.corner_rot.clone(),
-        basis: q,
-        free: (0..nv)
-            .map(|v| [fixed[2 * v].is_none(), fixed[2 * v + 1].is_none()])
-            .collect(),
-    };
-    Ok((uv, space))
+    }
+
+    /// The map for gaps `w` and constraints `fixes`; `fixes` must fix what the ones this step
+    /// was factored for fix (values may differ), otherwise the step is factored afresh.
+    pub(crate) fn solve(
+        &self,
+        w: &[[f64; 2]],
+        fixes: &BTreeMap<usize, VertexFix>,
+    ) -> Result<(Vec<[f64; 2]>, MapSpace), ParamError> {
+        let (mesh, cut, global, rots) = (self.mesh, self.cut, self.global, self.rots);
+        let (q, fixed) = layout(mesh, cut, global, fixes);
+        if q != self.q
+            || fixed
+                .iter()
+                .map(Option::is_some)
+                .ne(self.fixed.iter().copied())
+        {
+            return ConstrainedStep::new(mesh, cut, global, rots, self.disk, fixes)?
+                .solve(w, fixes);
+        }
+        let nv = mesh.n_vertices();
+        let var_of = |c: usize| -> Option<usize> {
+            let v = mesh.from(c);
+            (!cut.singular[v]).then_some(v)
+        };
+        let targets = GlobalSystem::targets(mesh, self.disk);
+        let consts: Vec<[f64; 2]> = global.corner_lin.iter().map(|l| l.eval(w)).collect();
+        let mut rhs: Vec<f64> = fixed.iter().map(|f| f.unwrap_or(0.0)).collect();
+        for f in 0..mesh.n_faces() {
+            let k = stiffness(mesh, f);
+            for a in 0..3 {
+                let ca = 3 * f + a;
+                let Some(va) = var_of(ca) else { continue };
+                let ra = global.corner_rot[ca] as i64;
+                let qa_t = transpose(&q[va]);
+                // rhs: Q_aᵀ R^{-rot_a} (b_a − Σ_b k_ab c_b)
+                let mut r = targets[ca];
+                for bb in 0..3 {
+                    let c = consts[3 * f + bb];
+                    r[0] -= k[a][bb] * c[0];
+                    r[1] -= k[a][bb] * c[1];
+                }
+                let r = apply(&qa_t, apply(rots.get(-ra), r));
+                for i in 0..2 {
+                    if fixed[2 * va + i].is_none() {
+                        rhs[2 * va + i] += r[i];
+                    }
+                }
+                // Fixed columns move to the right-hand side.
+                for bb in 0..3 {
+                    let cb = 3 * f + bb;
+                    let Some(vb) = var_of(cb) else { continue };
+                    let rb = global.corner_rot[cb] as i64;
+                    let blk = mul(&qa_t, &mul(rots.get(rb - ra), &q[vb]));
+                    for i in 0..2 {
+                        let row = 2 * va + i;
+                        if fixed[row].is_some() {
+                            continue;
+                        }
+                        for j in 0..2 {
+                            if let Some(y) = fixed[2 * vb + j] {
+                                rhs[row] -= k[a][bb] * blk[2 * i + j] * y;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let y = self.solver.solve(&rhs)?;
+        let uv = (0..3 * mesh.n_faces())
+            .map(|c| {
+                let mut p = consts[c];
+                if let Some(v) = var_of(c) {
+                    let x = apply(&q[v], [y[2 * v], y[2 * v + 1]]);
+                    let x = apply(rots.get(global.corner_rot[c] as i64), x);
+                    p[0] += x[0];
+                    p[1] += x[1];
+                }
+                p
+            })
+            .collect();
+        // The maps the repair may move within: the same unknowns, the fixed components held.
+        let space = MapSpace {
+            var: (0..3 * mesh.n_faces())
+                .map(|c| var_of(c).map_or(NONE, |v| v as u32))
+                .collect(),
+            consts,
+            rot: global.corner_rot.clone(),
+            basis: q,
+            free: (0..nv)
+                .map(|v| [fixed[2 * v].is_none(), fixed[2 * v + 1].is_none()])
+                .collect(),
+        };
+        Ok((uv, space))
+    }
 }
 
 /// Replaces the unconstrained step's pins (one vertex per translation-invariant component)

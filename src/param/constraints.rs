@@ -532,22 +532,8 @@ impl Traced {
             .flat_map(|&g| self.lines.coords(g))
             .chain(self.measured_c.iter().copied())
             .collect();
-        // Only the unknowns in some equation, renumbered.
-        let mut involved: Vec<usize> = self
-            .rows
-            .iter()
-            .flat_map(|(r, _)| r.iter().map(|&(k, _)| k))
-            .collect();
-        involved.sort_unstable();
-        involved.dedup();
+        let (involved, rows) = self.involved();
         if !involved.is_empty() {
-            let local: BTreeMap<usize, usize> =
-                involved.iter().enumerate().map(|(i, &k)| (k, i)).collect();
-            let rows: Vec<Vec<(usize, i128)>> = self
-                .rows
-                .iter()
-                .map(|(r, _)| r.iter().map(|&(k, a)| (local[&k], a)).collect())
-                .collect();
             let t: Vec<f64> = involved.iter().map(|&k| target[k]).collect();
             let metric = self.metric(hessian, &involved);
             let sol =
@@ -568,6 +554,59 @@ impl Traced {
             .map(|k| self.lines.vector([w[2 * k], w[2 * k + 1]]))
             .collect();
         Ok((gaps, w))
+    }
+
+    /// The unknowns in some equation, and the equations over them renumbered in that order.
+    fn involved(&self) -> (Vec<usize>, Vec<Vec<(usize, i128)>>) {
+        let mut involved: Vec<usize> = self
+            .rows
+            .iter()
+            .flat_map(|(r, _)| r.iter().map(|&(k, _)| k))
+            .collect();
+        involved.sort_unstable();
+        involved.dedup();
+        let local: BTreeMap<usize, usize> =
+            involved.iter().enumerate().map(|(i, &k)| (k, i)).collect();
+        let rows = self
+            .rows
+            .iter()
+            .map(|(r, _)| r.iter().map(|&(k, a)| (local[&k], a)).collect())
+            .collect();
+        (involved, rows)
+    }
+
+    /// The solution of C_c w = 0 nearest to `w` with unknown `k` moved by `step`: the other
+    /// gaps are held hard, the curve values c_κ give way first. `None` when no integer
+    /// solution keeps the step (or the arithmetic overflows).
+    pub fn stepped(&self, w: &[f64], k: usize, step: f64) -> Option<Vec<f64>> {
+        let mut out = w.to_vec();
+        out[k] += step;
+        if self.holds(&out) {
+            return Some(out);
+        }
+        let (involved, rows) = self.involved();
+        let at = involved.iter().position(|&x| x == k)?;
+        let m = 2 * self.n_gaps;
+        let n = involved.len();
+        let mut metric = vec![0.0; n * n];
+        for (i, &x) in involved.iter().enumerate() {
+            metric[i * n + i] = if i == at {
+                1e8
+            } else if x < m {
+                1e4
+            } else {
+                1.0
+            };
+        }
+        let t: Vec<f64> = involved.iter().map(|&x| out[x]).collect();
+        let sol = super::integer::nearest_integer_solution(&rows, n, &t, Some(&metric)).ok()?;
+        if sol[at] as f64 != out[k] {
+            return None;
+        }
+        for (i, &x) in involved.iter().enumerate() {
+            out[x] = sol[i] as f64;
+        }
+        Some(out)
     }
 
     /// The gap components the energy metric needs: both of every gap some equation involves
@@ -660,6 +699,29 @@ impl Traced {
             out.insert(v, fix);
         }
         out
+    }
+
+    /// Whether the integer unknowns `w` (as [`Traced::round`] returns them) satisfy every
+    /// combinatorial equation C_c w = 0 exactly.
+    pub fn holds(&self, w: &[f64]) -> bool {
+        self.rows.iter().all(|(row, _)| {
+            row.iter()
+                .map(|&(k, a)| a * w[k].round() as i128)
+                .sum::<i128>()
+                == 0
+        })
+    }
+
+    /// Lattice coordinates of a gap vector (what `w` holds per gap).
+    pub fn lattice_coords(&self, g: [f64; 2]) -> [f64; 2] {
+        self.lines.coords(g)
+    }
+
+    /// The gaps (uv vectors) of the integer unknowns `w`.
+    pub fn gaps(&self, w: &[f64]) -> Vec<[f64; 2]> {
+        (0..self.n_gaps)
+            .map(|k| self.lines.vector([w[2 * k], w[2 * k + 1]]))
+            .collect()
     }
 
     pub fn has_geometric(&self) -> bool {

@@ -30,6 +30,7 @@ mod integer;
 mod local;
 mod metrics;
 mod poles;
+mod reround;
 mod rot;
 mod system;
 mod untangle;
@@ -315,12 +316,6 @@ fn cones(mesh: &TriMesh, singularities: &[Singularity]) -> Vec<f64> {
     }
     out
 }
-
-/// Gaps tried per round when the repair left folds ([`QuadCover::reround`]), the best
-/// candidates of them repaired per round, and the rounds.
-const REROUND_GAPS: usize = 8;
-const REROUND_TRIES: usize = 3;
-const REROUND_ROUNDS: usize = 6;
 
 /// Changed rows up to which [`QuadCover::updated`] updates a system instead of refactoring it.
 /// Inside a supernodal factor each row adds three sparse columns solved along their
@@ -838,31 +833,26 @@ impl QuadCover {
         let hessian = self
             .global
             .gap_hessian(mesh, &self.rots, &traced.metric_gap_components())?;
-        let (gaps, w) = traced.round(&local.gaps, &plain, &hessian)?;
-        let (mut uv, space) = if traced.has_geometric() {
-            constrained::solve(
-                mesh,
-                &self.cut,
-                &self.global,
-                &self.rots,
-                &local.disk,
-                &gaps,
-                &traced.fixes(&w),
-            )?
-        } else {
-            let uv = self.global_uv(mesh, &local, &gaps)?;
-            (uv, self.global.map_space(mesh.n_vertices(), &gaps))
-        };
+        let (_, mut w) = traced.round(&local.gaps, &plain, &hessian)?;
+        let (mut uv, space) = self.curve_map(mesh, &local, &traced, None, &w)?;
         let global_ms = ms(t);
         // The repair holds the curves' fixed components: the fits below still hold exactly.
         if !self.opts.no_untangle && !untangle::folded(&uv).is_empty() {
             preview(&uv);
         }
         let cones = cones(mesh, &singularities);
-        let repair = self.untangle(mesh, &local, &space, Some(&cones), &mut uv, cancel);
+        let mut repair = self.untangle(mesh, &local, &space, Some(&cones), &mut uv, cancel);
+        let mut rerounded = Vec::new();
+        if !untangle::folded(&uv).is_empty() && !self.opts.no_untangle && !cancel() {
+            let t = Instant::now();
+            rerounded =
+                self.reround_curves(mesh, &local, &traced, &mut w, &mut uv, &mut repair, cancel)?;
+            repair.ms += ms(t);
+        }
         if cancel() {
             return Err(ParamError::Cancelled);
         }
+        let gaps = traced.gaps(&w);
         let fits = traced.fits(&self.rots, &uv, &w);
         let mut p = self.complete(
             mesh,
@@ -875,161 +865,8 @@ impl QuadCover {
             &repair,
         );
         p.curves = fits;
+        p.rerounded_gaps = rerounded;
         Ok(p)
-    }
-
-    /// Folds the repair left, stuck ones (two branch points rounded onto one lattice point: no
-    /// motion of the vertices can undo them) or not (a branch point rounded so far from where
-    /// its ring wants it that the folds it causes outgrow the repair's regions): the gaps the
-    /// held corners around them depend on are moved by one lattice step, one at a time. The
-    /// candidates are ranked by the global map they give (stuck faces, folds, rounding error),
-    /// and the best [`REROUND_TRIES`] are repaired in turn: the repaired map plus the change of
-    /// the global map (still seamless: both are maps of the global step's form), so that only
-    /// the folds near the moved branch points are repaired again. The first with fewer folds
-    /// than the current map is kept; rounds go on until no fold is left or nothing helps.
-    /// Returns the changed gaps.
-    fn reround(
-        &self,
-        mesh: &TriMesh,
-        local: &LocalSolution,
-        gaps: &mut Vec<[f64; 2]>,
-        uv: &mut Vec<[f64; 2]>,
-        repair: &mut untangle::Repair,
-        cancel: CancelCheck<'_>,
-    ) -> Result<Vec<Rerounded>, ParamError> {
-        let first = gaps.clone();
-        let error = |g: &[[f64; 2]]| -> f64 {
-            g.iter()
-                .zip(&local.gaps)
-                .map(|(a, b)| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2))
-                .sum()
-        };
-        // The state with the fewest folds so far: a round may trade folds for fewer stuck
-        // faces, which only later rounds can turn into fewer folds.
-        let mut best = (
-            untangle::folded(uv).len(),
-            gaps.clone(),
-            uv.clone(),
-            repair.clone(),
-        );
-        for _ in 0..REROUND_ROUNDS {
-            let folds_now = untangle::folded(uv);
-            if folds_now.len() < best.0 {
-                best = (folds_now.len(), gaps.clone(), uv.clone(), repair.clone());
-            }
-            if folds_now.is_empty() || cancel() {
-                break;
-            }
-            // The corners of the faces around the folded faces' vertices (the other held
-            // corner of a stuck face may sit across an edge, or beyond a vertex between
-            // them), stuck faces first; the gaps of the held ones, in that order.
-            let stuck: std::collections::HashSet<usize> = repair.stuck.iter().copied().collect();
-            let (mut order, rest): (Vec<usize>, Vec<usize>) =
-                folds_now.iter().partition(|f| stuck.contains(f));
-            order.extend(rest);
-            let mut candidates: Vec<usize> = order
-                .iter()
-                .flat_map(|&f| {
-                    (3 * f..3 * f + 3)
-                        .flat_map(|h| mesh.outgoing(mesh.from(h)))
-                        .flat_map(|h| [h, mesh.next(h), mesh.prev(h)])
-                        .collect::<Vec<_>>()
-                })
-                .filter(|&c| self.global.corner_var[c] == cut::NONE)
-                .flat_map(|c| self.global.corner_lin[c].0.iter().map(|x| x.0 as usize))
-                .collect();
-            let mut seen = std::collections::HashSet::new();
-            candidates.retain(|k| seen.insert(*k));
-            candidates.truncate(REROUND_GAPS);
-            // Stuck faces must become fewer; without stuck faces any candidate may help.
-            let stuck_now = repair.stuck.len();
-            // The global map is affine in the gaps: two solves per candidate give the map of
-            // every step of it (to rounding, which is good enough for ranking; the kept map is
-            // solved for exactly).
-            let base = self.global_uv(mesh, local, gaps)?;
-            // ((stuck, folds, rounding error), gaps).
-            type Ranked = ((usize, usize, f64), Vec<[f64; 2]>);
-            let mut ranked: Vec<Ranked> = Vec::new();
-            for &k in &candidates {
-                let unit = |i: usize| -> Result<Vec<[f64; 2]>, ParamError> {
-                    let mut g = gaps.clone();
-                    g[k][i] += 1.0;
-                    let u = self.global_uv(mesh, local, &g)?;
-                    Ok(u.iter()
-                        .zip(&base)
-                        .map(|(a, b)| [a[0] - b[0], a[1] - b[1]])
-                        .collect())
-                };
-                let (d0, d1) = (unit(0)?, unit(1)?);
-                for d in self.lattice.steps() {
-                    let mut g = gaps.clone();
-                    g[k] = [g[k][0] + d[0], g[k][1] + d[1]];
-                    let u: Vec<[f64; 2]> = (0..base.len())
-                        .map(|c| {
-                            std::array::from_fn(|i| base[c][i] + d[0] * d0[c][i] + d[1] * d1[c][i])
-                        })
-                        .collect();
-                    let space = self.global.map_space(mesh.n_vertices(), &g);
-                    let (stuck, folds) = untangle::count_stuck(mesh, &self.rots, &space, &u);
-                    if stuck < stuck_now || stuck_now == 0 {
-                        ranked.push(((stuck, folds, error(&g)), g));
-                    }
-                }
-            }
-            ranked.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap_or(std::cmp::Ordering::Equal));
-            let mut kept = false;
-            'tries: for (i, (_, g)) in ranked.into_iter().take(REROUND_TRIES).enumerate() {
-                let fresh = self.global_uv(mesh, local, &g)?;
-                let space = self.global.map_space(mesh.n_vertices(), &g);
-                // The repaired map moved by the change of the global map; for the best
-                // candidate also the new global map itself, repaired from scratch (either
-                // start wins on some meshes: spot at 1500 vertices, N = 4 and N = 6).
-                let moved: Vec<[f64; 2]> = (0..uv.len())
-                    .map(|c| std::array::from_fn(|k| uv[c][k] + fresh[c][k] - base[c][k]))
-                    .collect();
-                let starts = if i == 0 {
-                    vec![moved, fresh]
-                } else {
-                    vec![moved]
-                };
-                for mut u in starts {
-                    if cancel() {
-                        break 'tries;
-                    }
-                    self.untangle(mesh, local, &space, None, &mut u, cancel);
-                    let after = untangle::count_stuck(mesh, &self.rots, &space, &u);
-                    if after < (stuck_now, folds_now.len()) {
-                        *gaps = g;
-                        *uv = u;
-                        *repair = untangle::Repair {
-                            before: repair.before,
-                            ms: repair.ms,
-                            rewound: repair.rewound,
-                            stuck: untangle::folded(uv)
-                                .into_iter()
-                                .filter(|&f| untangle::stuck(mesh, &self.rots, &space, uv, f))
-                                .collect(),
-                        };
-                        kept = true;
-                        break 'tries;
-                    }
-                }
-            }
-            if !kept {
-                break;
-            }
-        }
-        if untangle::folded(uv).len() >= best.0 {
-            (_, *gaps, *uv, *repair) = best;
-        }
-        Ok((0..gaps.len())
-            .filter(|&k| gaps[k] != first[k])
-            .map(|k| Rerounded {
-                path: k,
-                from: first[k],
-                to: gaps[k],
-            })
-            .collect())
     }
 
     /// The injectivity repair ([`untangle`]) unless it is off; counts the folds either way.
