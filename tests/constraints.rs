@@ -17,6 +17,38 @@ mod seams;
 mod meshes;
 use meshes::{base_for, shared};
 
+#[path = "support/remesh_checks.rs"]
+mod remesh_checks;
+
+/// The remesh `solve --remesh` makes of a solved state: relaxation keeps its vertices on the
+/// state's curves. Returns it with the curves' edges as segments and 1e-3 of the bounding-box
+/// diagonal (the tolerance for "a mesh edge along every sharp edge").
+fn remesh_along_curves(
+    base: &Base,
+    state: &EditState,
+    solved: &Solved,
+) -> (
+    quadcover::extract::Remesh,
+    Vec<(glam::DVec3, glam::DVec3)>,
+    f64,
+) {
+    let mesh = base.mesh();
+    let n = base.settings().symmetry as u8;
+    let options = quadcover::extract::ExtractOptions {
+        constrained_edges: quadcover::constraint::curve_edges(mesh, state.curves.values()),
+        ..Default::default()
+    };
+    let remesh = quadcover::extract::extract(mesh, &solved.param.uv, n, &options).unwrap();
+    let along = state
+        .curves
+        .values()
+        .flat_map(|c| c.segments())
+        .map(|(a, b)| (mesh.position(a), mesh.position(b)))
+        .collect();
+    let (lo, hi) = mesh.bounding_box();
+    (remesh, along, 1e-3 * (hi - lo).length())
+}
+
 fn replay_solve(base: &Base, edits: &[Edit]) -> (EditState, Solved) {
     let r = base.replay(edits, &quadcover::edit::never).unwrap();
     assert!(r.skipped.is_empty(), "skipped: {:?}", r.skipped);
@@ -182,6 +214,23 @@ fn fandisk_features_lie_on_parameter_lines() {
         !solved.param.rerounded_gaps.is_empty(),
         "the folds left by the repair were re-rounded"
     );
+    // The quad remesh has an edge along every sharp edge.
+    let (remesh, along, tol) = remesh_along_curves(&base, &state, &solved);
+    let (share, worst) = remesh_checks::edges_along(&remesh, &along, tol);
+    eprintln!(
+        "fandisk remesh: {:.2} % of the sharp edges' samples within 1e-3 of the diagonal of a remesh edge along them (worst {:.2e} of the diagonal), {} patched places",
+        100.0 * share,
+        worst / tol * 1e-3,
+        remesh.patched_places
+    );
+    // 98.5 % in the first measurement (2026-12-01); what misses lies at the two folds
+    // (a crease turning back at an acute corner, both legs on one line: the faces between
+    // them are squeezed) and the faces the extraction patched there.
+    assert!(
+        share >= 0.985,
+        "{:.2} % of the sharp edges' samples",
+        100.0 * share
+    );
 }
 
 #[test]
@@ -209,6 +258,32 @@ fn boundaries_lie_on_parameter_lines() {
         assert_eq!(
             solved.param.flipped_faces, 0,
             "{name} N = {n}: folded faces"
+        );
+        // The remesh's boundary runs along the input's.
+        let (remesh, along, tol) = remesh_along_curves(&base, &state, &solved);
+        let (share, worst) = remesh_checks::edges_along(&remesh, &along, tol);
+        eprintln!(
+            "{name} N = {n} remesh: {:.2} % of the boundary's samples within 1e-3 of the diagonal of a remesh edge along it (worst {:.2e} of the diagonal), {} patched places",
+            100.0 * share,
+            worst / tol * 1e-3,
+            remesh.patched_places
+        );
+        // Measured 2026-12-03: camelhead 97.4 % (N = 4) and 98.0 % (N = 6), the bunny 79.2 %.
+        // What misses is mostly within a few tolerances: the remesh's boundary edges are chords
+        // between grid points on the boundary line, and the input's boundary bends between
+        // them (the bunny's scanned holes are jagged at well under a cell); the rest lies at
+        // patched places.
+        let floor = if name == "bunny.obj" { 0.75 } else { 0.97 };
+        assert!(
+            share >= floor,
+            "{name} N = {n}: {:.2} % of the boundary's samples",
+            100.0 * share
+        );
+        assert!(
+            remesh
+                .faces
+                .iter()
+                .all(|f| f.len() == if n == 6 { 3 } else { 4 })
         );
     }
 }

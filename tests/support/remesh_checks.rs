@@ -110,3 +110,52 @@ pub fn boundary_loops(r: &Remesh) -> usize {
     }
     loops
 }
+
+/// Distance from `p` to the segment `a`–`b`.
+pub fn segment_distance(p: glam::DVec3, a: glam::DVec3, b: glam::DVec3) -> f64 {
+    let d = b - a;
+    let t = if d.length_squared() > 0.0 {
+        ((p - a).dot(d) / d.length_squared()).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (a + t * d - p).length()
+}
+
+/// How well the remesh's edges run along the polyline edges `along` (input positions): every
+/// input edge is sampled at 9 points, and each sample's distance is taken to the nearest remesh
+/// edge whose two ends both lie within `tol` of `along` (a remesh edge that only crosses a
+/// crease does not count). Returns the fraction of samples within `tol` and the worst distance.
+pub fn edges_along(r: &Remesh, along: &[(glam::DVec3, glam::DVec3)], tol: f64) -> (f64, f64) {
+    let near = |p: glam::DVec3| along.iter().any(|&(a, b)| segment_distance(p, a, b) <= tol);
+    let on: Vec<bool> = r.positions.iter().map(|&p| near(p)).collect();
+    let mut edges = HashSet::new();
+    for f in &r.faces {
+        for k in 0..f.len() {
+            let (a, b) = (f[k] as usize, f[(k + 1) % f.len()] as usize);
+            if on[a] && on[b] {
+                edges.insert((a.min(b), a.max(b)));
+            }
+        }
+    }
+    let edges: Vec<(glam::DVec3, glam::DVec3)> = edges
+        .into_iter()
+        .map(|(a, b)| (r.positions[a], r.positions[b]))
+        .collect();
+    let (mut within, mut total, mut worst) = (0usize, 0usize, 0.0f64);
+    for &(a, b) in along {
+        for k in 0..9 {
+            let p = a + (b - a) * (k as f64 / 8.0);
+            let d = edges
+                .iter()
+                .map(|&(x, y)| segment_distance(p, x, y))
+                .fold(f64::INFINITY, f64::min);
+            total += 1;
+            if d <= tol {
+                within += 1;
+            }
+            worst = worst.max(d);
+        }
+    }
+    (within as f64 / total.max(1) as f64, worst)
+}
