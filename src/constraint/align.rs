@@ -103,3 +103,167 @@ pub fn alignment<'a>(
     }
     out
 }
+
+/// Alignments for the faces inside an acute corner between two geometric curves: where two
+/// curves meet at a vertex (a crease that turns back sharply and was split there, two creases
+/// meeting) and the faces between them span an angle α under π/N on the surface, the field
+/// would turn by α across them and both curves would run along one direction of the N-fold
+/// frame: one parameter line, the faces between them squeezed to zero area (fandisk at 40°:
+/// two creases meeting at 19° left a fold no repair can undo). These faces are held instead to
+/// a frame that turns by α − 2π/N from one curve to the other, linearly in the angle around the
+/// vertex, so the second curve runs along the frame's next direction: the corner becomes a
+/// lattice corner of 2π/N (90° for quads, 60° for triangles), its faces stretched, not folded.
+/// Corners within one curve are left alone (a jagged boundary's notch is no corner at the
+/// grid's scale; `detect` splits curves at real corners). N = 2 has no next direction of another
+/// family and gets none. Returns the alignments and the corners' apexes.
+pub fn acute_corners<'a>(
+    mesh: &TriMesh,
+    curves: impl IntoIterator<Item = &'a Curve>,
+    n: u32,
+) -> (Vec<CurveAlignment>, Vec<usize>) {
+    let mut out = Vec::new();
+    let mut apexes = Vec::new();
+    if n < 4 {
+        return (out, apexes);
+    }
+    let step = 2.0 * std::f64::consts::PI / n as f64;
+    // Per mesh edge: the geometric curve along it (the first one).
+    let mut curve_of: Vec<Option<u32>> = vec![None; mesh.n_edges()];
+    let mut corners: Vec<usize> = Vec::new();
+    for c in curves {
+        if c.kind != CurveKind::Geometric {
+            continue;
+        }
+        for (a, b) in c.segments() {
+            if let Some(h) = halfedge_between(mesh, a, b) {
+                curve_of[mesh.edge(h)].get_or_insert(c.id);
+            }
+        }
+        if !c.closed && c.vertices.len() >= 2 {
+            corners.extend([c.vertices[0], c.vertices[c.vertices.len() - 1]]);
+        }
+    }
+    corners.sort_unstable();
+    corners.dedup();
+    for m in corners {
+        let fan: Vec<usize> = mesh.outgoing(m).collect();
+        let k = fan.len();
+        let boundary = mesh.is_boundary_vertex(m);
+        // The fan's edges in counter-clockwise order: face i lies between edges i and i + 1
+        // (cyclic inside; at the boundary one more edge closes the fan).
+        let mut edges: Vec<usize> = fan.iter().map(|&h| mesh.edge(h)).collect();
+        if boundary {
+            edges.push(mesh.edge(mesh.prev(fan[k - 1])));
+        }
+        let marked: Vec<usize> = (0..edges.len())
+            .filter(|&i| curve_of[edges[i]].is_some())
+            .collect();
+        if marked.len() < 2 {
+            continue;
+        }
+        let pairs: Vec<(usize, usize)> = if boundary {
+            marked.windows(2).map(|w| (w[0], w[1])).collect()
+        } else {
+            (0..marked.len())
+                .map(|i| (marked[i], marked[(i + 1) % marked.len()]))
+                .collect()
+        };
+        for (first, last) in pairs {
+            if curve_of[edges[first]] == curve_of[edges[last]] {
+                continue;
+            }
+            let faces: Vec<usize> = if last > first {
+                (first..last).collect()
+            } else {
+                (first..k).chain(0..last).collect()
+            };
+            let alpha: f64 = faces.iter().map(|&i| mesh.corner_angle(fan[i])).sum();
+            if faces.is_empty() || alpha >= step / 2.0 {
+                continue;
+            }
+            apexes.push(m);
+            let turn = (alpha - step) / alpha;
+            let mut before = 0.0;
+            for &i in &faces {
+                let h = fan[i];
+                let angle = mesh.corner_angle(h);
+                // The frame's angle at the face's middle, from the face's first edge.
+                let theta = (before + angle / 2.0) * turn - before;
+                let f = mesh.face_of(h);
+                let e = mesh.vector(h).normalize_or_zero();
+                let normal = mesh.face_normal(f);
+                out.push(CurveAlignment {
+                    face: f,
+                    direction: theta.cos() * e + theta.sin() * normal.cross(e),
+                });
+                before += angle;
+            }
+        }
+    }
+    apexes.dedup();
+    (out, apexes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::constraint::CurveOrigin;
+
+    fn curve(id: u32, vertices: &[usize], kind: CurveKind) -> Curve {
+        Curve {
+            id,
+            vertices: vertices.to_vec(),
+            closed: false,
+            kind,
+            origin: CurveOrigin::Drawn,
+        }
+    }
+
+    /// The frame's angle in degrees modulo 90° (N = 4), in [0, 90).
+    fn mod90(d: DVec3) -> f64 {
+        d.y.atan2(d.x).to_degrees().rem_euclid(90.0)
+    }
+
+    #[test]
+    fn the_faces_of_an_acute_corner_turn_to_the_next_direction() {
+        // A flat fan around vertex 0; ring vertices at these angles (degrees).
+        let angles = [0.0f64, 20.0, 40.0, 100.0, 160.0, 220.0, 280.0, 330.0];
+        let mut positions = vec![DVec3::ZERO];
+        positions.extend(
+            angles
+                .iter()
+                .map(|a| DVec3::new(a.to_radians().cos(), a.to_radians().sin(), 0.0)),
+        );
+        let k = angles.len() as u32;
+        let faces: Vec<[u32; 3]> = (0..k).map(|i| [0, 1 + i, 1 + (i + 1) % k]).collect();
+        let mesh = TriMesh::from_triangles(positions, faces).unwrap();
+        // Two curves meeting at 0 at 40°: the two faces between them turn the frame from the
+        // first curve (0°) by 40° − 90° = −50°, linearly: −12.5° and −37.5° at their middles.
+        let a = curve(0, &[1, 0], CurveKind::Geometric);
+        let b = curve(1, &[0, 3], CurveKind::Geometric);
+        let (turned, apexes) = acute_corners(&mesh, [&a, &b], 4);
+        assert_eq!(apexes, vec![0]);
+        assert_eq!(turned.len(), 2);
+        for (t, expected) in turned.iter().zip([-12.5f64, -37.5]) {
+            let f = mesh.face(t.face);
+            assert!(f.contains(&0), "a face at the apex");
+            let got = mod90(t.direction);
+            let want = expected.rem_euclid(90.0);
+            assert!((got - want).abs() < 1e-9, "{got} against {want}");
+        }
+        // Faces in order from the first curve: the one at 0°-20° first.
+        let first = mesh.face(turned[0].face);
+        assert!(first.contains(&1) && first.contains(&2));
+        // Not acute for N = 6 (under 30° only), none for N = 2.
+        assert!(acute_corners(&mesh, [&a, &b], 6).0.is_empty());
+        assert!(acute_corners(&mesh, [&a, &b], 2).0.is_empty());
+        // A turn within one curve, or a combinatorial curve, is no corner.
+        let through = curve(2, &[1, 0, 3], CurveKind::Geometric);
+        assert!(acute_corners(&mesh, [&through], 4).0.is_empty());
+        let loose = curve(1, &[0, 3], CurveKind::Combinatorial);
+        assert!(acute_corners(&mesh, [&a, &loose], 4).0.is_empty());
+        // A corner of 100° is none either.
+        let c = curve(1, &[0, 4], CurveKind::Geometric);
+        assert!(acute_corners(&mesh, [&a, &c], 4).0.is_empty());
+    }
+}
