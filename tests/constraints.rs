@@ -223,7 +223,7 @@ fn fandisk_features_lie_on_parameter_lines() {
     );
     // The quad remesh has an edge along every sharp edge.
     let (remesh, along, tol) = remesh_along_curves(&base, &state, &solved);
-    let (share, worst) = remesh_checks::edges_along(&remesh, &along, tol);
+    let (share, worst, misses) = remesh_checks::edges_along(&remesh, &along, tol);
     eprintln!(
         "fandisk remesh: {:.2} % of the sharp edges' samples within 1e-3 of the diagonal of a remesh edge along them (worst {:.2e} of the diagonal), {} patched places",
         100.0 * share,
@@ -296,7 +296,7 @@ fn boundaries_lie_on_parameter_lines() {
         );
         // The remesh's boundary runs along the input's.
         let (remesh, along, tol) = remesh_along_curves(&base, &state, &solved);
-        let (share, worst) = remesh_checks::edges_along(&remesh, &along, tol);
+        let (share, worst, _) = remesh_checks::edges_along(&remesh, &along, tol);
         eprintln!(
             "{name} N = {n} remesh: {:.2} % of the boundary's samples within 1e-3 of the diagonal of a remesh edge along it (worst {:.2e} of the diagonal), {} patched places",
             100.0 * share,

@@ -125,8 +125,13 @@ pub fn segment_distance(p: glam::DVec3, a: glam::DVec3, b: glam::DVec3) -> f64 {
 /// How well the remesh's edges run along the polyline edges `along` (input positions): every
 /// input edge is sampled at 9 points, and each sample's distance is taken to the nearest remesh
 /// edge whose two ends both lie within `tol` of `along` (a remesh edge that only crosses a
-/// crease does not count). Returns the fraction of samples within `tol` and the worst distance.
-pub fn edges_along(r: &Remesh, along: &[(glam::DVec3, glam::DVec3)], tol: f64) -> (f64, f64) {
+/// crease does not count). Returns the fraction of samples within `tol`, the worst distance and
+/// the samples farther than `tol`.
+pub fn edges_along(
+    r: &Remesh,
+    along: &[(glam::DVec3, glam::DVec3)],
+    tol: f64,
+) -> (f64, f64, Vec<glam::DVec3>) {
     let near = |p: glam::DVec3| along.iter().any(|&(a, b)| segment_distance(p, a, b) <= tol);
     let on: Vec<bool> = r.positions.iter().map(|&p| near(p)).collect();
     let mut edges = HashSet::new();
@@ -142,7 +147,7 @@ pub fn edges_along(r: &Remesh, along: &[(glam::DVec3, glam::DVec3)], tol: f64) -
         .into_iter()
         .map(|(a, b)| (r.positions[a], r.positions[b]))
         .collect();
-    let (mut within, mut total, mut worst) = (0usize, 0usize, 0.0f64);
+    let (mut within, mut total, mut worst, mut misses) = (0usize, 0usize, 0.0f64, Vec::new());
     for &(a, b) in along {
         for k in 0..9 {
             let p = a + (b - a) * (k as f64 / 8.0);
@@ -153,9 +158,11 @@ pub fn edges_along(r: &Remesh, along: &[(glam::DVec3, glam::DVec3)], tol: f64) -
             total += 1;
             if d <= tol {
                 within += 1;
+            } else {
+                misses.push(p);
             }
             worst = worst.max(d);
         }
     }
-    (within as f64 / total.max(1) as f64, worst)
+    (within as f64 / total.max(1) as f64, worst, misses)
 }
