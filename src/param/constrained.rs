@@ -87,6 +87,46 @@ fn layout(
     (q, fixed)
 }
 
+/// The global step's entries k_ab Q_aᵀ R^{rot_b − rot_a} Q_b of corner `ca`'s face on the free
+/// rows of its vertex, as (row, column, value) with columns free or fixed (singular vertices
+/// have no unknowns).
+#[allow(clippy::too_many_arguments)]
+fn corner_entries(
+    mesh: &TriMesh,
+    cut: &CutGraph,
+    global: &GlobalSystem,
+    rots: &Rots,
+    q: &[M2],
+    fixed: &[Option<f64>],
+    k: &[[f64; 3]; 3],
+    ca: usize,
+    mut visit: impl FnMut(usize, usize, f64),
+) {
+    let var_of = |c: usize| -> Option<usize> {
+        let v = mesh.from(c);
+        (!cut.singular[v]).then_some(v)
+    };
+    let Some(va) = var_of(ca) else { return };
+    let (f, a) = (ca / 3, ca % 3);
+    let ra = global.corner_rot[ca] as i64;
+    let qa_t = transpose(&q[va]);
+    for bb in 0..3 {
+        let cb = 3 * f + bb;
+        let Some(vb) = var_of(cb) else { continue };
+        let rb = global.corner_rot[cb] as i64;
+        let blk = mul(&qa_t, &mul(rots.get(rb - ra), &q[vb]));
+        for i in 0..2 {
+            let row = 2 * va + i;
+            if fixed[row].is_some() {
+                continue;
+            }
+            for j in 0..2 {
+                visit(row, 2 * vb + j, k[a][bb] * blk[2 * i + j]);
+            }
+        }
+    }
+}
+
 impl<'a> ConstrainedStep<'a> {
     pub(crate) fn new(
         mesh: &'a TriMesh,
@@ -103,35 +143,24 @@ impl<'a> ConstrainedStep<'a> {
             // Explicit zero keeps every diagonal in the pattern.
             b.add(i, i, if f.is_some() { 1.0 } else { 0.0 });
         }
-        let var_of = |c: usize| -> Option<usize> {
-            let v = mesh.from(c);
-            (!cut.singular[v]).then_some(v)
-        };
         for f in 0..mesh.n_faces() {
             let k = stiffness(mesh, f);
             for a in 0..3 {
-                let ca = 3 * f + a;
-                let Some(va) = var_of(ca) else { continue };
-                let ra = global.corner_rot[ca] as i64;
-                let qa_t = transpose(&q[va]);
-                for bb in 0..3 {
-                    let cb = 3 * f + bb;
-                    let Some(vb) = var_of(cb) else { continue };
-                    let rb = global.corner_rot[cb] as i64;
-                    let blk = mul(&qa_t, &mul(rots.get(rb - ra), &q[vb]));
-                    for i in 0..2 {
-                        let row = 2 * va + i;
-                        if fixed[row].is_some() {
-                            continue;
+                corner_entries(
+                    mesh,
+                    cut,
+                    global,
+                    rots,
+                    &q,
+                    &fixed,
+                    &k,
+                    3 * f + a,
+                    |r, c, v| {
+                        if fixed[c].is_none() {
+                            b.add(r, c, v);
                         }
-                        for j in 0..2 {
-                            let col = 2 * vb + j;
-                            if fixed[col].is_none() {
-                                b.add(row, col, k[a][bb] * blk[2 * i + j]);
-                            }
-                        }
-                    }
-                }
+                    },
+                );
             }
         }
         let matrix = b.build()?;
@@ -204,23 +233,11 @@ impl<'a> ConstrainedStep<'a> {
                     }
                 }
                 // Fixed columns move to the right-hand side.
-                for bb in 0..3 {
-                    let cb = 3 * f + bb;
-                    let Some(vb) = var_of(cb) else { continue };
-                    let rb = global.corner_rot[cb] as i64;
-                    let blk = mul(&qa_t, &mul(rots.get(rb - ra), &q[vb]));
-                    for i in 0..2 {
-                        let row = 2 * va + i;
-                        if fixed[row].is_some() {
-                            continue;
-                        }
-                        for j in 0..2 {
-                            if let Some(y) = fixed[2 * vb + j] {
-                                rhs[row] -= k[a][bb] * blk[2 * i + j] * y;
-                            }
-                        }
+                corner_entries(mesh, cut, global, rots, &q, &fixed, &k, ca, |r, c, v| {
+                    if let Some(y) = fixed[c] {
+                        rhs[r] -= v * y;
                     }
-                }
+                });
             }
         }
         let y = self.solver.solve(&rhs)?;

@@ -42,6 +42,26 @@ impl QuadCover {
         candidates
     }
 
+    /// The repair's report for a re-rounded map `uv`: the first repair's counts and time, the
+    /// stuck faces of the new map.
+    fn repair_of(
+        &self,
+        mesh: &TriMesh,
+        space: &untangle::MapSpace,
+        uv: &[[f64; 2]],
+        first: &untangle::Repair,
+    ) -> untangle::Repair {
+        untangle::Repair {
+            before: first.before,
+            ms: first.ms,
+            rewound: first.rewound,
+            stuck: untangle::folded(uv)
+                .into_iter()
+                .filter(|&f| untangle::stuck(mesh, &self.rots, space, uv, f))
+                .collect(),
+        }
+    }
+
     /// Folds the repair left, stuck ones (two branch points rounded onto one lattice point: no
     /// motion of the vertices can undo them) or not (a branch point rounded so far from where
     /// its ring wants it that the folds it causes outgrow the repair's regions): the gaps the
@@ -145,15 +165,7 @@ impl QuadCover {
                     if after < (stuck_now, folds_now.len()) {
                         *gaps = g;
                         *uv = u;
-                        *repair = untangle::Repair {
-                            before: repair.before,
-                            ms: repair.ms,
-                            rewound: repair.rewound,
-                            stuck: untangle::folded(uv)
-                                .into_iter()
-                                .filter(|&f| untangle::stuck(mesh, &self.rots, &space, uv, f))
-                                .collect(),
-                        };
+                        *repair = self.repair_of(mesh, &space, uv, repair);
                         kept = true;
                         break 'tries;
                     }
@@ -301,15 +313,7 @@ impl QuadCover {
                 if after < now {
                     *w = w2;
                     *uv = u;
-                    *repair = untangle::Repair {
-                        before: repair.before,
-                        ms: repair.ms,
-                        rewound: repair.rewound,
-                        stuck: untangle::folded(uv)
-                            .into_iter()
-                            .filter(|&f| untangle::stuck(mesh, &self.rots, &space, uv, f))
-                            .collect(),
-                    };
+                    *repair = self.repair_of(mesh, &space, uv, repair);
                     kept = true;
                     break;
                 }
