@@ -178,14 +178,7 @@ impl QuadCover {
         if untangle::folded(uv).len() >= best.0 {
             (_, *gaps, *uv, *repair) = best;
         }
-        Ok((0..gaps.len())
-            .filter(|&k| gaps[k] != first[k])
-            .map(|k| Rerounded {
-                path: k,
-                from: first[k],
-                to: gaps[k],
-            })
-            .collect())
+        Ok(changed(&first, gaps))
     }
 
     /// The global step's map of the integer unknowns `w` under the curves: with geometric
@@ -322,14 +315,18 @@ impl QuadCover {
                 break;
             }
         }
-        let gaps = traced.gaps(w);
-        Ok((0..gaps.len())
-            .filter(|&k| gaps[k] != first[k])
-            .map(|k| Rerounded {
-                path: k,
-                from: first[k],
-                to: gaps[k],
-            })
-            .collect())
+        Ok(changed(&first, &traced.gaps(w)))
     }
+}
+
+/// The gaps that differ between `first` and `now`, as the report lists them.
+fn changed(first: &[[f64; 2]], now: &[[f64; 2]]) -> Vec<Rerounded> {
+    (0..now.len())
+        .filter(|&k| now[k] != first[k])
+        .map(|k| Rerounded {
+            path: k,
+            from: first[k],
+            to: now[k],
+        })
+        .collect()
 }
