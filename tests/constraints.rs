@@ -20,18 +20,17 @@ use meshes::{base_for, shared};
 #[path = "support/remesh_checks.rs"]
 mod remesh_checks;
 
-/// The remesh `solve --remesh` makes of a solved state: relaxation keeps its vertices on the
-/// state's curves. Returns it with the curves' edges as segments and 1e-3 of the bounding-box
-/// diagonal (the issue's tolerance for "a mesh edge along every sharp edge").
+/// The remesh `solve --remesh` makes of a solved state (relaxation keeps its vertices on the
+/// state's curves) and how well its edges run along the curves: the share of the curves'
+/// samples within 1e-3 of the bounding-box diagonal (the issue's tolerance for "a mesh edge
+/// along every sharp edge") of a remesh edge along them, and the samples that miss (printed
+/// with the worst distance and the patched places under `what`).
 fn remesh_along_curves(
     base: &Base,
     state: &EditState,
     solved: &Solved,
-) -> (
-    quadcover::extract::Remesh,
-    Vec<(glam::DVec3, glam::DVec3)>,
-    f64,
-) {
+    what: &str,
+) -> (quadcover::extract::Remesh, f64, Vec<glam::DVec3>) {
     let mesh = base.mesh();
     let n = base.settings().symmetry as u8;
     let options = quadcover::extract::ExtractOptions {
@@ -39,14 +38,22 @@ fn remesh_along_curves(
         ..Default::default()
     };
     let remesh = quadcover::extract::extract(mesh, &solved.param.uv, n, &options).unwrap();
-    let along = state
+    let along: Vec<_> = state
         .curves
         .values()
         .flat_map(|c| c.segments())
         .map(|(a, b)| (mesh.position(a), mesh.position(b)))
         .collect();
     let (lo, hi) = mesh.bounding_box();
-    (remesh, along, 1e-3 * (hi - lo).length())
+    let diagonal = (hi - lo).length();
+    let (share, worst, misses) = remesh_checks::edges_along(&remesh, &along, 1e-3 * diagonal);
+    eprintln!(
+        "{what} remesh: {:.2} % of the curves' samples within 1e-3 of the diagonal of a remesh edge along them (worst {:.2e} of the diagonal), {} patched places",
+        100.0 * share,
+        worst / diagonal,
+        remesh.patched_places
+    );
+    (remesh, share, misses)
 }
 
 fn replay_solve(base: &Base, edits: &[Edit]) -> (EditState, Solved) {
@@ -222,14 +229,7 @@ fn fandisk_features_lie_on_parameter_lines() {
         "the folds left by the repair were re-rounded"
     );
     // The quad remesh has an edge along every sharp edge.
-    let (remesh, along, tol) = remesh_along_curves(&base, &state, &solved);
-    let (share, worst, misses) = remesh_checks::edges_along(&remesh, &along, tol);
-    eprintln!(
-        "fandisk remesh: {:.2} % of the sharp edges' samples within 1e-3 of the diagonal of a remesh edge along them (worst {:.2e} of the diagonal), {} patched places",
-        100.0 * share,
-        worst / tol * 1e-3,
-        remesh.patched_places
-    );
+    let (remesh, share, misses) = remesh_along_curves(&base, &state, &solved, "fandisk");
     // 98.5 % in the issue's first measurement (2026-12-01), 98.8 % with 2 folds at the acute
     // corner (2026-12-03, before its frame turned), 99.5 % now: what misses lies at the
     // places the extraction patched (2).
@@ -296,14 +296,8 @@ fn boundaries_lie_on_parameter_lines() {
             "{name} N = {n}: folded faces"
         );
         // The remesh's boundary runs along the input's.
-        let (remesh, along, tol) = remesh_along_curves(&base, &state, &solved);
-        let (share, worst, _) = remesh_checks::edges_along(&remesh, &along, tol);
-        eprintln!(
-            "{name} N = {n} remesh: {:.2} % of the boundary's samples within 1e-3 of the diagonal of a remesh edge along it (worst {:.2e} of the diagonal), {} patched places",
-            100.0 * share,
-            worst / tol * 1e-3,
-            remesh.patched_places
-        );
+        let (remesh, share, _) =
+            remesh_along_curves(&base, &state, &solved, &format!("{name} N = {n}"));
         // Measured 2026-12-03: camelhead 97.4 % (N = 4) and 98.0 % (N = 6), the bunny 79.2 %.
         // What misses is mostly within a few tolerances: the remesh's boundary edges are chords
         // between grid points on the boundary line, and the input's boundary bends between

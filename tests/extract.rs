@@ -24,6 +24,29 @@ fn vertex_uvs(mesh: &TriMesh, f: impl Fn(glam::DVec3) -> [f64; 2]) -> Vec<[f64; 
         .collect()
 }
 
+/// Per-corner UVs of the plain chart (s·x, s·y) with the faces right of `cut` (by centroid) in a
+/// chart turned by `rot` quarter turns and shifted by the lattice vector `shift`: a seamless map
+/// with rotational transitions along the cut.
+fn rotated_chart(mesh: &TriMesh, s: f64, cut: f64, rot: usize, shift: [f64; 2]) -> Vec<[f64; 2]> {
+    let mut uv = Vec::new();
+    for (f, t) in mesh.faces().iter().enumerate() {
+        let c = mesh.face_centroid(f);
+        for &v in t {
+            let p = mesh.position(v as usize);
+            let (mut x, mut y) = (s * p.x, s * p.y);
+            if c.x > cut {
+                for _ in 0..rot {
+                    (x, y) = (-y, x);
+                }
+                x += shift[0];
+                y += shift[1];
+            }
+            uv.push([x, y]);
+        }
+    }
+    uv
+}
+
 #[test]
 fn flat_grid_regular() {
     let mesh = generate::grid(10, 10, 1.0, 1.0);
@@ -113,22 +136,7 @@ fn noise_gives_same_result() {
 fn rotated_transition() {
     let mesh = generate::grid(12, 12, 1.0, 1.0);
     for (s, rot) in [(4.0, 1), (6.0, 3), (4.8, 2), (6.0, 1)] {
-        let mut uv = Vec::new();
-        for (f, t) in mesh.faces().iter().enumerate() {
-            let c = mesh.face_centroid(f);
-            for &v in t {
-                let p = mesh.position(v as usize);
-                let (mut x, mut y) = (s * p.x, s * p.y);
-                if c.x > 0.5 {
-                    for _ in 0..rot {
-                        (x, y) = (-y, x);
-                    }
-                    x += 3.0;
-                    y -= 2.0;
-                }
-                uv.push([x, y]);
-            }
-        }
+        let uv = rotated_chart(&mesh, s, 0.5, rot, [3.0, -2.0]);
         let plain = vertex_uvs(&mesh, |p| [s * p.x, s * p.y]);
         let a = extract(&mesh, &plain, 4, &ExtractOptions::default()).unwrap();
         let b = extract(&mesh, &uv, 4, &ExtractOptions::default()).unwrap();
@@ -161,22 +169,7 @@ fn boundary_on_grid_lines_across_a_rotated_chart() {
     );
     for cut in [0.3, 0.5, 0.7] {
         for rot in 1..4 {
-            let mut uv = Vec::new();
-            for (f, t) in mesh.faces().iter().enumerate() {
-                let c = mesh.face_centroid(f);
-                for &v in t {
-                    let p = mesh.position(v as usize);
-                    let (mut x, mut y) = (s * p.x, s * p.y);
-                    if c.x > cut {
-                        for _ in 0..rot {
-                            (x, y) = (-y, x);
-                        }
-                        x += 7.0;
-                        y -= 3.0;
-                    }
-                    uv.push([x, y]);
-                }
-            }
+            let uv = rotated_chart(&mesh, s, cut, rot, [7.0, -3.0]);
             let b = extract(&mesh, &uv, 4, &ExtractOptions::default()).unwrap();
             let case = format!("cut at {cut}, chart rotated {rot} quarter turns");
             assert_eq!(b.patched_places, 0, "{case}");

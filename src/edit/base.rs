@@ -5,15 +5,6 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Around the apex of an acute corner between two curves, the radius (in cancellation radii)
-/// within which opposite singularities on curves cancel. The design makes the apex a
-/// singularity (the corner's faces are turned by the corner's frame, so its cone angle is the
-/// wedge's 2π/N plus the rest's 2π) and puts the compensating one of the other sign on a curve
-/// a cell or two away, beside the branch points already there: rounded onto the lattice, that
-/// cluster folds. Fandisk at 30°, 35°, 40°, 50°, 60° with 1: 9, 20, 10, 8, 6 folds; with 1.5 or
-/// 2: 0, 0, 0, 7, 1; with 3: 0, 0, 0, 2, 0 (the corner's frame off: 2, 2, 2, 9, 4).
-const APEX_CLUSTER: f64 = 3.0;
-
 use super::moves::{MergeRules, PlannedMove, plan_move, released_faces, turn_index};
 use super::{Cancel, Curve, Edit, EditError, Settings};
 use crate::field::cancel::{PathSearch, apply};
@@ -26,6 +17,15 @@ use crate::field::{
 };
 use crate::mesh::TriMesh;
 use crate::param::{ConstraintCurve, ParamAnalysis, ParamError, Parameterization, QuadCover};
+
+/// Around the apex of an acute corner between two curves, the radius (in cancellation radii)
+/// within which opposite singularities on curves cancel. The design makes the apex a
+/// singularity (the corner's faces are turned by the corner's frame, so its cone angle is the
+/// wedge's 2π/N plus the rest's 2π) and puts the compensating one of the other sign on a curve
+/// a cell or two away, beside the branch points already there: rounded onto the lattice, that
+/// cluster folds. Fandisk at 30°, 35°, 40°, 50°, 60° with 1: 9, 20, 10, 8, 6 folds; with 1.5 or
+/// 2: 0, 0, 0, 7, 1; with 3: 0, 0, 0, 2, 0 (the corner's frame off: 2, 2, 2, 9, 4).
+const APEX_CLUSTER: f64 = 3.0;
 
 /// The combinatorial state after some edits: integer turns and released faces. The
 /// singularities follow from the turns alone ([`turn_index`]).
@@ -570,11 +570,10 @@ impl Base {
             state.curves.values(),
             self.settings.symmetry,
         );
-        let wide = APEX_CLUSTER;
         let near_apex = |q: usize| {
-            apexes
-                .iter()
-                .any(|&a| (self.mesh.position(q) - self.mesh.position(a)).length() < wide * radius)
+            apexes.iter().any(|&a| {
+                (self.mesh.position(q) - self.mesh.position(a)).length() < APEX_CLUSTER * radius
+            })
         };
         let singular: Vec<usize> = state.singularities.keys().copied().collect();
         for p in singular {
@@ -585,7 +584,11 @@ impl Base {
                 continue;
             }
             let dist = |q: usize| (self.mesh.position(q) - self.mesh.position(p)).length();
-            let reach = if near_apex(p) { wide * radius } else { radius };
+            let reach = if near_apex(p) {
+                APEX_CLUSTER * radius
+            } else {
+                radius
+            };
             let partner = state
                 .singularities
                 .iter()
@@ -606,31 +609,31 @@ impl Base {
     /// directions there combined modulo 2π/N (the mean of e^{iNα}).
     fn design_alignment(&self, state: &EditState) -> Vec<(u32, f64)> {
         let n = self.settings.symmetry as f64;
-        let mut sum: BTreeMap<usize, (f64, f64)> = BTreeMap::new();
-        for a in
-            crate::constraint::alignment(&self.mesh, state.curves.values(), self.grid_size() / 2.0)
-        {
-            let alpha = self.bases.angle_of(a.face, a.direction);
-            let e = sum.entry(a.face).or_insert((0.0, 0.0));
-            e.0 += (n * alpha).cos();
-            e.1 += (n * alpha).sin();
-        }
+        // Per face the sum of e^{iNα} over its alignments.
+        let combined = |alignments: Vec<crate::constraint::CurveAlignment>| {
+            let mut sum: BTreeMap<usize, (f64, f64)> = BTreeMap::new();
+            for a in alignments {
+                let alpha = self.bases.angle_of(a.face, a.direction);
+                let e = sum.entry(a.face).or_insert((0.0, 0.0));
+                e.0 += (n * alpha).cos();
+                e.1 += (n * alpha).sin();
+            }
+            sum
+        };
+        let mut sum = combined(crate::constraint::alignment(
+            &self.mesh,
+            state.curves.values(),
+            self.grid_size() / 2.0,
+        ));
         // Faces inside an acute corner between two curves take the corner's turning frame
         // instead (combined over the corners they lie in): their curves' mean would put both
         // curves on one line.
-        let mut corners: BTreeMap<usize, (f64, f64)> = BTreeMap::new();
         let (turning, _) = crate::constraint::acute_corners(
             &self.mesh,
             state.curves.values(),
             self.settings.symmetry,
         );
-        for a in turning {
-            let alpha = self.bases.angle_of(a.face, a.direction);
-            let e = corners.entry(a.face).or_insert((0.0, 0.0));
-            e.0 += (n * alpha).cos();
-            e.1 += (n * alpha).sin();
-        }
-        sum.extend(corners);
+        sum.extend(combined(turning));
         sum.into_iter()
             .filter(|(_, (c, s))| c.hypot(*s) > 1e-9)
             .map(|(f, (c, s))| (f as u32, s.atan2(c) / n))
