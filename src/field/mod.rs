@@ -375,6 +375,16 @@ fn field_with_analysis<T: Send>(
     let cancel = |theta: &[f64], turns: &[i64]| {
         cancel::cancel_close_pairs(mesh, &tr, theta, turns, n, radius)
     };
+    // Under aligned curves, a relaxed solution with a singularity of index +1/2 or more (at
+    // least 2/N: the pole a symmetric disc inside an aligned rim rounds to) is renormalized
+    // (see [`smoothing::RENORMALIZE_STEPS`]). Without curves such poles are the curvature
+    // lines' (umbilics, thesis sec. 4.3) and stay.
+    let renormalize = |turns: &[i64]| {
+        let least = (n as i32 / 2).max(2);
+        index::turn_indices(mesh, &tr, turns, n)
+            .iter()
+            .any(|k| k.is_some_and(|k| k >= least))
+    };
     let layout = layout()?;
     let sm = smoothing::smooth(&smoothing::SmoothInput {
         n,
@@ -384,6 +394,10 @@ fn field_with_analysis<T: Send>(
         tau: params.tau,
         relaxation: params.relaxation,
         adjust_turns: (radius > 0.0).then_some(&cancel as &smoothing::AdjustTurns),
+        renormalize: params
+            .aligned
+            .is_some()
+            .then_some(&renormalize as &smoothing::Renormalize),
         analysis: Some(analysis),
         layout: Some(&layout),
         keep_system: params.keep_system,
