@@ -724,6 +724,12 @@ impl Traced {
             .collect()
     }
 
+    /// [`Traced::fixes`] at unknowns 0: which components the geometric curves fix and along
+    /// which normals, all that the constrained step's matrix depends on.
+    pub fn fix_pattern(&self) -> BTreeMap<usize, VertexFix> {
+        self.fixes(&vec![0.0; 2 * self.n_gaps + self.measured_c.len()])
+    }
+
     pub fn has_geometric(&self) -> bool {
         self.at_vertex
             .values()

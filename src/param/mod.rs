@@ -829,12 +829,37 @@ impl QuadCover {
             curves,
         )?;
         let plain = self.round_gaps(mesh, &local)?;
-        // The energy's dependence on the gaps weighs the rounding of the unknowns in equations.
-        let hessian = self
-            .global
-            .gap_hessian(mesh, &self.rots, &traced.metric_gap_components())?;
-        let (_, mut w) = traced.round(&local.gaps, &plain, &hessian)?;
-        let (mut uv, space) = self.curve_map(mesh, &local, &traced, None, &w)?;
+        // Side by side: the rounding, and the constrained step's factorization, which depends
+        // only on which components the curves fix, not on the rounded values (it serves the
+        // re-rounding below as well).
+        let (rounded, step) = rayon::join(
+            || -> Result<Vec<f64>, ParamError> {
+                // The energy's dependence on the gaps weighs the rounding of the unknowns in
+                // equations.
+                let hessian =
+                    self.global
+                        .gap_hessian(mesh, &self.rots, &traced.metric_gap_components())?;
+                Ok(traced.round(&local.gaps, &plain, &hessian)?.1)
+            },
+            || {
+                traced
+                    .has_geometric()
+                    .then(|| {
+                        constrained::ConstrainedStep::new(
+                            mesh,
+                            &self.cut,
+                            &self.global,
+                            &self.rots,
+                            &local.disk,
+                            &traced.fix_pattern(),
+                        )
+                    })
+                    .transpose()
+            },
+        );
+        let mut w = rounded?;
+        let step = step?;
+        let (mut uv, space) = self.curve_map(mesh, &local, &traced, step.as_ref(), &w)?;
         let global_ms = ms(t);
         // The repair holds the curves' fixed components: the fits below still hold exactly.
         if !self.opts.no_untangle && !untangle::folded(&uv).is_empty() {
@@ -845,8 +870,16 @@ impl QuadCover {
         let mut rerounded = Vec::new();
         if !untangle::folded(&uv).is_empty() && !self.opts.no_untangle && !cancel() {
             let t = Instant::now();
-            rerounded =
-                self.reround_curves(mesh, &local, &traced, &mut w, &mut uv, &mut repair, cancel)?;
+            rerounded = self.reround_curves(
+                mesh,
+                &local,
+                &traced,
+                step.as_ref(),
+                &mut w,
+                &mut uv,
+                &mut repair,
+                cancel,
+            )?;
             repair.ms += ms(t);
         }
         if cancel() {

@@ -229,6 +229,7 @@ impl QuadCover {
         mesh: &TriMesh,
         local: &LocalSolution,
         traced: &Traced,
+        factored: Option<&ConstrainedStep>,
         w: &mut Vec<f64>,
         uv: &mut Vec<[f64; 2]>,
         repair: &mut untangle::Repair,
@@ -242,19 +243,6 @@ impl QuadCover {
             .collect();
         let error =
             |w: &[f64]| -> f64 { measured.iter().zip(w).map(|(a, b)| (a - b).powi(2)).sum() };
-        // Which components the curves fix does not depend on the unknowns: one factorization.
-        let factored = if traced.has_geometric() {
-            Some(ConstrainedStep::new(
-                mesh,
-                &self.cut,
-                &self.global,
-                &self.rots,
-                &local.disk,
-                &traced.fixes(w),
-            )?)
-        } else {
-            None
-        };
         for _ in 0..REROUND_ROUNDS {
             let folds_now = untangle::folded(uv);
             if folds_now.is_empty() || cancel() {
@@ -277,8 +265,7 @@ impl QuadCover {
                         if cancel() {
                             return Ok(Vec::new());
                         }
-                        let (u, space) =
-                            self.curve_map(mesh, local, traced, factored.as_ref(), &w2)?;
+                        let (u, space) = self.curve_map(mesh, local, traced, factored, &w2)?;
                         let (stuck, folds) = untangle::count_stuck(mesh, &self.rots, &space, &u);
                         if stuck < now.0 || now.0 == 0 {
                             let e = error(&w2);
@@ -292,7 +279,7 @@ impl QuadCover {
             // moved branch points are repaired again. (Repairing the candidate's global map
             // from scratch as well, as `reround` does for its best, gave the same folds on
             // fandisk at 40°, 50° and 60° in more time.)
-            let (base, _) = self.curve_map(mesh, local, traced, factored.as_ref(), w)?;
+            let (base, _) = self.curve_map(mesh, local, traced, factored, w)?;
             let mut kept = false;
             for (_, w2, fresh, space) in ranked.into_iter().take(REROUND_TRIES) {
                 if cancel() {
