@@ -250,6 +250,11 @@ impl EditorApp {
             "Round gaps to 2Z² so that every singularity becomes one irregular vertex of the quad \
              remesh (N = 4; more distortion than the thesis's ½Z²)",
         );
+        ui.checkbox(&mut d.renormalize_field, "Renormalize field")
+            .on_hover_text(
+                "Pull the relaxed field to unit length (Ginzburg–Landau steps): a smoother field \
+                 and less distortion; splits umbilic poles into ±1/N; the field takes longer",
+            );
         ui.checkbox(&mut d.no_half_merges, "No half merges (refuse ±2/4)");
         ui.checkbox(&mut d.no_pole_merges, "No pole merges (refuse +N/N)")
             .on_hover_text(

@@ -51,6 +51,8 @@ pub struct Settings {
     pub relax_merge_within: f64,
     /// Keep the folds of the global step (no injectivity repair).
     pub no_untangle: bool,
+    /// Renormalize the field's relaxed solve (`FieldParams::renormalize`).
+    pub renormalize_field: bool,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -78,6 +80,7 @@ impl Default for Settings {
             no_pole_merges: false,
             relax_merge_within: 1.0,
             no_untangle: false,
+            renormalize_field: false,
         }
     }
 }
@@ -135,6 +138,7 @@ impl Settings {
             reliable_fraction: self.reliable_fraction,
             curvature_smoothing: self.curvature_smoothing,
             cancel_pairs_within: self.cancel_pairs_within,
+            renormalize: self.renormalize_field,
             ..Default::default()
         };
         match (self.scale, self.target_vertices) {

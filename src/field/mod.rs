@@ -193,6 +193,12 @@ pub struct FieldParams {
     /// as is). The default 5 halves the singularities of curvature fields on scanned meshes
     /// (bunny, N = 4: 110 -> 63; remesh irregular vertices 49 -> 21).
     pub curvature_smoothing: usize,
+    /// Renormalize every relaxed solve ([`smoothing::RENORMALIZE_STEPS`]), not only one that
+    /// rounds to a pole under aligned curves. Lower smoothing energy and conformal distortion
+    /// (docs/untangling.md: spot N = 4 1.268 → 1.171, fertility 1.242 → 1.181); off by default:
+    /// it splits the curvature lines' umbilic poles (thesis sec. 4.3) and costs the field more.
+    #[serde(default)]
+    pub renormalize: bool,
     /// Keep the factored fixed-matching system in [`FieldResult::system`] (the edit model
     /// re-solves with it; it costs the factor's memory, so only asked for there).
     #[serde(skip)]
@@ -221,6 +227,7 @@ impl Default for FieldParams {
             scale: ScaleFunction::Uniform,
             curvature_smoothing: 5,
             cancel_pairs_within: 1.0,
+            renormalize: false,
             keep_system: false,
             aligned: None,
         }
@@ -375,11 +382,15 @@ fn field_with_analysis<T: Send>(
     let cancel = |theta: &[f64], turns: &[i64]| {
         cancel::cancel_close_pairs(mesh, &tr, theta, turns, n, radius)
     };
-    // Under aligned curves, a relaxed solution with a singularity of index +1/2 or more (at
-    // least 2/N: the pole a symmetric disc inside an aligned rim rounds to) is renormalized
+    // Every relaxed solution with `renormalize`; otherwise, under aligned curves, one with a
+    // singularity of index +1/2 or more (at least 2/N: the pole a symmetric disc inside an
+    // aligned rim rounds to) is renormalized
     // (see [`smoothing::RENORMALIZE_STEPS`]). Without curves such poles are the curvature
     // lines' (umbilics, thesis sec. 4.3) and stay.
     let renormalize = |turns: &[i64]| {
+        if params.renormalize {
+            return true;
+        }
         let least = (n as i32 / 2).max(2);
         index::turn_indices(mesh, &tr, turns, n)
             .iter()
@@ -394,9 +405,7 @@ fn field_with_analysis<T: Send>(
         tau: params.tau,
         relaxation: params.relaxation,
         adjust_turns: (radius > 0.0).then_some(&cancel as &smoothing::AdjustTurns),
-        renormalize: params
-            .aligned
-            .is_some()
+        renormalize: (params.aligned.is_some() || params.renormalize)
             .then_some(&renormalize as &smoothing::Renormalize),
         analysis: Some(analysis),
         layout: Some(&layout),
