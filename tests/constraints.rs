@@ -730,3 +730,28 @@ fn aligned_rims_give_caps_quarter_singularities_not_poles() {
         assert!(share > 0.99, "{what}: {share}");
     }
 }
+
+/// The bunny with its boundary aligned and the field renormalized (`renormalize_field`): two
+/// boundary corners one edge apart, held by parallel lines of a short run that the rounding put
+/// on one value, folded their face (1 fold left, 2026-12-03); the re-rounding under curves now
+/// steps the curve values c_κ holding the folded faces' corners too, not only gaps.
+#[test]
+fn renormalized_aligned_bunny_has_no_fold() {
+    let Some(path) = shared("bunny.obj") else {
+        return;
+    };
+    let settings = Settings {
+        renormalize_field: true,
+        ..Settings::default()
+    };
+    let base = base_for(&path, settings);
+    let (state, solved) = replay_solve(&base, &[Edit::AlignBoundary { on: true }]);
+    check_geometric(&base, &state, &solved);
+    eprintln!(
+        "bunny aligned, renormalized: {} flipped faces, conformal distortion {:.3} (p99 {:.2})",
+        solved.param.flipped_faces,
+        solved.param.conformal_distortion.mean,
+        solved.param.conformal_distortion.p99
+    );
+    assert_eq!(solved.param.flipped_faces, 0);
+}

@@ -724,6 +724,17 @@ impl Traced {
             .collect()
     }
 
+    /// The unknowns of the curve values c_κ whose lines hold `vertex` (indices into w), in
+    /// curve order.
+    pub fn value_unknowns_at(&self, vertex: usize) -> Vec<usize> {
+        self.at_vertex.get(&vertex).map_or_else(Vec::new, |ls| {
+            ls.iter()
+                .filter(|l| l.geometric)
+                .map(|l| 2 * self.n_gaps + l.curve)
+                .collect()
+        })
+    }
+
     /// [`Traced::fixes`] at unknowns 0: which components the geometric curves fix and along
     /// which normals, all that the constrained step's matrix depends on.
     pub fn fix_pattern(&self) -> BTreeMap<usize, VertexFix> {

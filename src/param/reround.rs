@@ -13,6 +13,8 @@ use crate::mesh::TriMesh;
 /// Gaps tried per round when the repair left folds ([`QuadCover::reround`]), the best
 /// candidates of them repaired per round, and the rounds.
 const REROUND_GAPS: usize = 8;
+/// Curve values tried per round of the re-rounding under curves ([`values_near`]).
+const REROUND_VALUES: usize = 4;
 const REROUND_TRIES: usize = 3;
 const REROUND_ROUNDS: usize = 6;
 
@@ -256,10 +258,16 @@ impl QuadCover {
                 untangle::MapSpace,
             );
             let mut ranked: Vec<Ranked> = Vec::new();
-            for k in self.gaps_near(mesh, &repair.stuck, &folds_now) {
-                for i in 0..2 {
+            let unknowns: Vec<usize> = self
+                .gaps_near(mesh, &repair.stuck, &folds_now)
+                .into_iter()
+                .flat_map(|k| [2 * k, 2 * k + 1])
+                .chain(values_near(mesh, traced, &repair.stuck, &folds_now))
+                .collect();
+            for k in unknowns {
+                {
                     for step in [-1.0, 1.0] {
-                        let Some(w2) = traced.stepped(w, 2 * k + i, step) else {
+                        let Some(w2) = traced.stepped(w, k, step) else {
                             continue;
                         };
                         if cancel() {
@@ -304,6 +312,23 @@ impl QuadCover {
         }
         Ok(changed(&first, &traced.gaps(w)))
     }
+}
+
+/// The curve values c_κ whose lines hold the corners of the folded faces, the stuck ones'
+/// first, at most [`REROUND_VALUES`]: two corners of a face held by parallel lines that the
+/// rounding put on one value (a short run between two corners of a jagged boundary) need a
+/// line moved, not a gap.
+fn values_near(mesh: &TriMesh, traced: &Traced, stuck: &[usize], folds: &[usize]) -> Vec<usize> {
+    let mut seen = std::collections::HashSet::new();
+    let mut out: Vec<usize> = stuck
+        .iter()
+        .chain(folds)
+        .flat_map(|&f| mesh.face(f))
+        .flat_map(|v| traced.value_unknowns_at(v))
+        .filter(|k| seen.insert(*k))
+        .collect();
+    out.truncate(REROUND_VALUES);
+    out
 }
 
 /// The gaps that differ between `first` and `now`, as the report lists them.
