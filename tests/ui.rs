@@ -2221,3 +2221,40 @@ fn stale_remesh_results_are_dropped_and_failures_keep_the_last_good_one() {
     assert!(!h.state().busy());
     assert!(Arc::ptr_eq(&shown_remesh(&h), &view));
 }
+
+/// *Renormalize field* is `renormalize_field` of the solve settings: checking it and applying
+/// recomputes the field renormalized (a lower smoothing energy on spot) and the map, and the
+/// project written afterwards carries the setting.
+#[test]
+fn renormalize_field_is_a_solve_setting() {
+    let (dir, _mesh, mut h) = editor_on_copy("spot.obj");
+    assert!(!h.state().document.settings.renormalize_field);
+    let before = {
+        let (base, state) = h.state().document.editable().unwrap();
+        base.field_of(state).e_smooth
+    };
+    h.get_by_label("Renormalize field").click();
+    h.run_steps(2);
+    assert!(h.state().settings_draft.renormalize_field);
+    h.get_by_label("Apply settings").click();
+    h.step();
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    assert!(h.state().document.solve_current());
+    let (base, state) = h.state().document.editable().unwrap();
+    assert!(base.settings().renormalize_field);
+    let after = base.field_of(state).e_smooth;
+    assert!(after < before, "E_smooth {before} → {after}");
+    let p = h.state().document.parameterization.clone().unwrap();
+    assert_eq!(p.flipped_faces, 0);
+    let project = h
+        .state()
+        .document
+        .project_for(&dir.path().join("p.json"))
+        .unwrap();
+    assert!(
+        project.to_json().contains("\"renormalize_field\": true"),
+        "{}",
+        project.to_json()
+    );
+}
