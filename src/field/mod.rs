@@ -382,11 +382,10 @@ fn field_with_analysis<T: Send>(
     let cancel = |theta: &[f64], turns: &[i64]| {
         cancel::cancel_close_pairs(mesh, &tr, theta, turns, n, radius)
     };
-    // Every relaxed solution with `renormalize`; otherwise, under aligned curves, one with a
-    // singularity of index +1/2 or more (at least 2/N: the pole a symmetric disc inside an
-    // aligned rim rounds to) is renormalized
-    // (see [`smoothing::RENORMALIZE_STEPS`]). Without curves such poles are the curvature
-    // lines' (umbilics, thesis sec. 4.3) and stay.
+    // Renormalized ([`smoothing::RENORMALIZE_STEPS`]): every relaxed solution with
+    // `renormalize`; otherwise, under aligned curves, one whose rounding has a singularity of
+    // index +1/2 or more (at least 2/N: the pole a symmetric disc inside an aligned rim rounds
+    // to). Without curves such poles are the curvature lines' (umbilics, thesis sec. 4.3).
     let renormalize = |turns: &[i64]| {
         if params.renormalize {
             return true;
