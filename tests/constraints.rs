@@ -630,62 +630,6 @@ fn cli_features_and_broken_curve_files() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// A closed cylinder (radius 0.5, height 1.2, `nu` around): the side a grid, each cap polar
-/// rings around a centre vertex. Its rims are sharp (90°): features at 40° make them closed
-/// geometric curves around the flat caps.
-fn capped_cylinder(nu: usize, nv: usize, rings: usize) -> TriMesh {
-    use std::f64::consts::TAU;
-    let (r, h) = (0.5, 1.2);
-    let mut p = Vec::new();
-    let ring = |p: &mut Vec<glam::DVec3>, rr: f64, z: f64| -> u32 {
-        let first = p.len() as u32;
-        for i in 0..nu {
-            let a = TAU * i as f64 / nu as f64;
-            p.push(glam::DVec3::new(rr * a.cos(), rr * a.sin(), z));
-        }
-        first
-    };
-    let side: Vec<u32> = (0..=nv)
-        .map(|j| ring(&mut p, r, h * j as f64 / nv as f64))
-        .collect();
-    let mut t: Vec<[u32; 3]> = Vec::new();
-    let at = |first: u32, i: usize| first + (i % nu) as u32;
-    for j in 0..nv {
-        for i in 0..nu {
-            let (a, b) = (at(side[j], i), at(side[j], i + 1));
-            let (c, d) = (at(side[j + 1], i + 1), at(side[j + 1], i));
-            t.push([a, b, c]);
-            t.push([a, c, d]);
-        }
-    }
-    for (rim, z, up) in [(side[0], 0.0, false), (side[nv], h, true)] {
-        // Rings from the rim inwards, then the centre.
-        let mut outer = rim;
-        for k in (1..rings).rev() {
-            let inner = ring(&mut p, r * k as f64 / rings as f64, z);
-            for i in 0..nu {
-                let (a, b) = (at(outer, i), at(outer, i + 1));
-                let (c, d) = (at(inner, i + 1), at(inner, i));
-                if up {
-                    t.push([a, b, c]);
-                    t.push([a, c, d]);
-                } else {
-                    t.push([a, c, b]);
-                    t.push([a, d, c]);
-                }
-            }
-            outer = inner;
-        }
-        let centre = p.len() as u32;
-        p.push(glam::DVec3::new(0.0, 0.0, z));
-        for i in 0..nu {
-            let (a, b) = (at(outer, i), at(outer, i + 1));
-            t.push(if up { [a, b, centre] } else { [b, a, centre] });
-        }
-    }
-    TriMesh::from_triangles(p, t).unwrap()
-}
-
 /// A cap whose rim is an aligned curve: the relaxed field is the harmonic extension of the
 /// rim's winding, with one zero of order N at the centre, which rounded to a pole (+1) with
 /// polar cells (2026-12-03 before the renormalization: conformal distortion 1.93, p99 7.05,
@@ -693,7 +637,9 @@ fn capped_cylinder(nu: usize, nv: usize, rings: usize) -> TriMesh {
 /// index +1/N and the map is nearly conformal.
 #[test]
 fn aligned_rims_give_caps_quarter_singularities_not_poles() {
-    let mesh = std::sync::Arc::new(capped_cylinder(64, 24, 12));
+    // Radius 0.5, height 1.2; the rims are sharp (90°), so features at 40° make them closed
+    // geometric curves around the flat caps.
+    let mesh = std::sync::Arc::new(generate::capped_cylinder(0.5, 1.2, 64, 24, 12));
     for n in [4u32, 6] {
         let settings = Settings {
             symmetry: n,

@@ -46,16 +46,6 @@ fn diag(mesh: &TriMesh) -> f64 {
     (hi - lo).length()
 }
 
-fn point_segment(p: DVec3, a: DVec3, b: DVec3) -> f64 {
-    let ab = b - a;
-    let t = if ab.length_squared() > 0.0 {
-        ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (a + ab * t - p).length()
-}
-
 fn newell(p: &[DVec3], f: &[u32]) -> DVec3 {
     (0..f.len())
         .map(|k| p[f[k] as usize].cross(p[f[(k + 1) % f.len()] as usize]))
@@ -160,7 +150,7 @@ fn violations(mesh: &TriMesh, surface: &Surface, before: &Remesh, after: &Remesh
         .collect();
     let to_boundary = |p: DVec3| {
         segs.iter()
-            .map(|&(a, b)| point_segment(p, a, b))
+            .map(|&(a, b)| remesh_checks::segment_distance(p, a, b))
             .fold(f64::INFINITY, f64::min)
     };
     let bd = boundary_vertices(before);
@@ -605,7 +595,7 @@ fn constraint_chain_is_kept() {
             for e in 0..mesh.n_edges() {
                 if constrained[e] {
                     let [a, b] = mesh.edge_vertices(e);
-                    let d = point_segment(p, mesh.position(a), mesh.position(b));
+                    let d = remesh_checks::segment_distance(p, mesh.position(a), mesh.position(b));
                     if d < best.0 {
                         best = (d, Origin::Edge(e as u32));
                     }

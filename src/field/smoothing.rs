@@ -951,22 +951,31 @@ fn relaxed_complex_system(
     layout: &DualLayout,
 ) -> Result<(SparseMatrix<c64>, Vec<c64>), SolverError> {
     let n = inp.n as f64;
-    let tr = inp.transport;
     let d = |i: usize| w[i] + if is_anchor[i] { 1.0 } else { 0.0 };
     let rhs = (0..inp.theta0.len())
         .into_par_iter()
         .map(|i| c64::from_polar(d(i), n * inp.theta0[i]))
         .collect();
-    // |z_j − ρ z_i|², ρ = e^{iNκ_ij}: ones on the diagonal, −ρ at (j, i), −conj(ρ) at (i, j).
-    let matrix = layout.fill(
-        |i| c64::new(d(i), 0.0),
+    Ok((relaxed_matrix(inp, layout, d)?, rhs))
+}
+
+/// The relaxed energy's matrix with `diagonal(i)` added on face i's diagonal:
+/// |z_j − ρ z_i|², ρ = e^{iNκ_ij}: ones on the diagonal, −ρ at (j, i), −conj(ρ) at (i, j).
+fn relaxed_matrix(
+    inp: &SmoothInput,
+    layout: &DualLayout,
+    diagonal: impl Fn(usize) -> f64 + Sync,
+) -> Result<SparseMatrix<c64>, SolverError> {
+    let n = inp.n as f64;
+    let tr = inp.transport;
+    layout.fill(
+        |i| c64::new(diagonal(i), 0.0),
         |e| {
             let rho = c64::from_polar(1.0, n * tr.kappa[e]);
             (-rho, -rho.conj())
         },
         c64::new(1.0, 0.0),
-    )?;
-    Ok((matrix, rhs))
+    )
 }
 
 /// The relaxed solution `z` renormalized ([`RENORMALIZE_STEPS`]): each step solves the relaxed
@@ -980,18 +989,10 @@ fn renormalized(
     rhs: &[c64],
     mut z: Vec<c64>,
 ) -> Result<Vec<c64>, SolverError> {
-    let n = inp.n as f64;
-    let tr = inp.transport;
     let mu = RENORMALIZE_WEIGHT;
-    let d = |i: usize| w[i] + if is_anchor[i] { 1.0 } else { 0.0 } + mu;
-    let matrix = layout.fill(
-        |i| c64::new(d(i), 0.0),
-        |e| {
-            let rho = c64::from_polar(1.0, n * tr.kappa[e]);
-            (-rho, -rho.conj())
-        },
-        c64::new(1.0, 0.0),
-    )?;
+    let matrix = relaxed_matrix(inp, layout, |i| {
+        w[i] + if is_anchor[i] { 1.0 } else { 0.0 } + mu
+    })?;
     let hierarchy = Multigrid::new(&matrix)?;
     drop(matrix);
     let tolerance = relaxed_tolerance(inp.tau.max(0.0));

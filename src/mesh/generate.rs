@@ -102,6 +102,57 @@ pub fn cylinder(r: f64, h: f64, nu: usize, nv: usize) -> TriMesh {
     build(p, f)
 }
 
+/// A closed cylinder: [`cylinder`]'s side with each end capped by `rings` polar rings around
+/// a centre vertex (a CAD part's round faces; with features its rims are closed curves).
+pub fn capped_cylinder(r: f64, h: f64, nu: usize, nv: usize, rings: usize) -> TriMesh {
+    let mut p = Vec::new();
+    let ring = |p: &mut Vec<DVec3>, rr: f64, z: f64| -> u32 {
+        let first = p.len() as u32;
+        for i in 0..nu {
+            let a = TAU * i as f64 / nu as f64;
+            p.push(DVec3::new(rr * a.cos(), rr * a.sin(), z));
+        }
+        first
+    };
+    let side: Vec<u32> = (0..=nv)
+        .map(|j| ring(&mut p, r, h * j as f64 / nv as f64))
+        .collect();
+    let at = |first: u32, i: usize| first + (i % nu) as u32;
+    let mut f = Vec::new();
+    for j in 0..nv {
+        for i in 0..nu {
+            let (a, b) = (at(side[j], i), at(side[j], i + 1));
+            let (c, d) = (at(side[j + 1], i + 1), at(side[j + 1], i));
+            quad(&mut f, a, b, c, d, false);
+        }
+    }
+    for (rim, z, up) in [(side[0], 0.0, false), (side[nv], h, true)] {
+        // Rings from the rim inwards, then the centre; the bottom cap faces down.
+        let mut outer = rim;
+        for k in (1..rings).rev() {
+            let inner = ring(&mut p, r * k as f64 / rings as f64, z);
+            for i in 0..nu {
+                let (a, b) = (at(outer, i), at(outer, i + 1));
+                let (c, d) = (at(inner, i + 1), at(inner, i));
+                if up {
+                    quad(&mut f, a, b, c, d, false);
+                } else {
+                    f.push([a, c, b]);
+                    f.push([a, d, c]);
+                }
+            }
+            outer = inner;
+        }
+        let centre = p.len() as u32;
+        p.push(DVec3::new(0.0, 0.0, z));
+        for i in 0..nu {
+            let (a, b) = (at(outer, i), at(outer, i + 1));
+            f.push(if up { [a, b, centre] } else { [b, a, centre] });
+        }
+    }
+    build(p, f)
+}
+
 /// A torus of revolution around z: major radius `big_r`, minor `r`, `nu` × `nv` quads.
 /// Vertex (i, j) sits at angles u = 2πi/nu (around z) and v = 2πj/nv (around the tube).
 pub fn torus(big_r: f64, r: f64, nu: usize, nv: usize) -> TriMesh {
