@@ -701,3 +701,53 @@ fn renormalized_aligned_bunny_has_no_fold() {
     );
     assert_eq!(solved.param.flipped_faces, 0);
 }
+
+/// A raw CAD tessellation (`generate::raw_cylinder`: the side one row of needles, the caps fans
+/// from a rim vertex, as an STL exporter writes a cylinder) with features on. As it is, the caps
+/// have no interior vertex for their singularities and the smoothing has no uniform sampling to
+/// follow: the map folds (2026-12-03: 110 folded faces, conformal distortion 70). Remeshed
+/// isotropically with its rims kept (`mesh::isotropic`, what `solve` does by itself on such
+/// input), it maps with no fold, the rims on parameter lines, eight +1/4 on the caps.
+#[test]
+fn a_raw_cad_cylinder_maps_once_remeshed() {
+    use quadcover::mesh::isotropic::{IsotropicOptions, isotropic_remesh, needs_remesh};
+    let raw = generate::raw_cylinder(0.5, 1.2, 48);
+    assert!(needs_remesh(&raw));
+    let features = [Edit::DetectFeatures { angle_deg: 40.0 }];
+    let base = Base::for_mesh(std::sync::Arc::new(raw.clone()), Settings::default()).unwrap();
+    let (_, solved) = replay_solve(&base, &features);
+    let p = &solved.param;
+    eprintln!(
+        "raw cylinder: {} folds before the repair, {} after, conformal distortion {:.2}",
+        p.flipped_faces_before_repair, p.flipped_faces, p.conformal_distortion.mean
+    );
+    assert!(
+        p.flipped_faces > 0 || p.conformal_distortion.mean > 3.0,
+        "the raw tessellation is expected to fail (else this test shows nothing)"
+    );
+
+    let opts = IsotropicOptions::for_vertices(&raw, 6000, 35.0);
+    let mesh = std::sync::Arc::new(isotropic_remesh(&raw, &opts).unwrap());
+    let base = Base::for_mesh(mesh, Settings::default()).unwrap();
+    let (state, solved) = replay_solve(&base, &features);
+    assert_eq!(state.curves.len(), 2, "the two rims");
+    check_geometric(&base, &state, &solved);
+    let p = &solved.param;
+    let ks: Vec<f64> = p.singularities.iter().map(|s| s.index * 4.0).collect();
+    eprintln!(
+        "remeshed raw cylinder: singularities {ks:?}, {} folds, conformal distortion {:.3} (p99 \
+         {:.2})",
+        p.flipped_faces, p.conformal_distortion.mean, p.conformal_distortion.p99
+    );
+    assert_eq!(p.flipped_faces, 0);
+    assert!(p.poles.is_empty());
+    assert_eq!(ks.len(), 8, "{ks:?}");
+    assert!(ks.iter().all(|&k| (k - 1.0).abs() < 1e-9), "{ks:?}");
+    assert!(
+        p.conformal_distortion.mean < 1.6,
+        "{:?}",
+        p.conformal_distortion
+    );
+    let (_, share, _) = remesh_along_curves(&base, &state, &solved, "remeshed raw cylinder");
+    assert!(share > 0.99, "{share}");
+}

@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 pub mod bench;
 pub mod extract;
 mod info;
+pub mod prepare;
 pub mod solve;
 
 /// Field-guided global parameterization and tiling of triangle meshes (QuadCover).
@@ -32,6 +33,9 @@ pub enum Command {
     Solve(solve::SolveArgs),
     /// Remesh a seamless parameterization (OBJ with per-corner UVs): quads, triangles, stripes.
     Extract(extract::ExtractArgs),
+    /// Remesh the input isotropically, keeping sharp features and the boundary (for raw CAD
+    /// tessellations; `solve` does it by itself where the input needs it).
+    Prepare(prepare::PrepareArgs),
 }
 
 /// Exit code for bad input (invalid mesh, unreadable file, bad arguments).
@@ -44,6 +48,7 @@ pub fn run(command: Command) -> ExitCode {
         Command::Bench(args) => bench::run(&args),
         Command::Solve(args) => solve::run(&args),
         Command::Extract(args) => extract::run(&args),
+        Command::Prepare(args) => prepare::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -12,11 +12,14 @@ use indicatif::ProgressBar;
 use serde::Serialize;
 use std::io::Write;
 
-use super::CliError;
+use super::{CliError, prepare};
 use crate::edit::{self, Base, Project, Settings, project::RoundingSetting};
 use crate::field::{self, Symmetry};
 use crate::io;
 use crate::mesh::TriMesh;
+use crate::mesh::isotropic::{
+    IsotropicOptions, NEEDLE_AREA_SHARE, isotropic_remesh, needle_area_share,
+};
 use crate::param;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -43,6 +46,15 @@ pub struct SolveArgs {
     /// Grid size in model units (one texture unit).
     #[arg(long)]
     pub scale: Option<f64>,
+    /// Never remesh the input, even a raw tessellation (see --prepare).
+    #[arg(long, conflicts_with = "prepare")]
+    pub keep_input: bool,
+    /// Remesh the input isotropically first (as `quadcover prepare`), keeping sharp features and
+    /// the boundary. Without a project this happens by itself when more than 20 % of the input's
+    /// area is in needles (triangles with a corner under 10°: raw CAD tessellations); the output
+    /// OBJ and REPORT.json then describe the remeshed mesh.
+    #[arg(long)]
+    pub prepare: bool,
     /// Weight of curvature alignment against smoothness (eq. 3.5–3.6).
     #[arg(long)]
     pub tau: Option<f64>,
@@ -151,7 +163,22 @@ struct SkippedOut {
 }
 
 #[derive(Debug, Serialize)]
+struct PreparedOut {
+    /// Vertices and faces of the file.
+    input_vertices: usize,
+    input_faces: usize,
+    /// Share of the file's area in triangles with a corner under 10°.
+    needle_area_share: f64,
+    edge_length: f64,
+    ms: f64,
+}
+
+#[derive(Serialize)]
 struct Report {
+    /// The input as remeshed before the solve (`--prepare`, or a raw tessellation), if it was:
+    /// the vertices, faces and UVs here are the remeshed mesh's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    prepared_input: Option<PreparedOut>,
     vertices: usize,
     faces: usize,
     genus: i64,
@@ -317,9 +344,65 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let bar = Progress::new();
     bar.start("load");
     let t = Instant::now();
+    if args.prepare && project.is_some() {
+        return Err(
+            "--prepare with --project: the project's edits name its mesh file's vertices; \
+             remesh the mesh with `quadcover prepare` and start a project on that"
+                .into(),
+        );
+    }
     let soup = io::read_mesh(&mesh_path)?;
     let (mesh, repair) =
         TriMesh::from_soup(&soup).map_err(|e| format!("{}: {e}", mesh_path.display()))?;
+    let needles = needle_area_share(&mesh);
+    let raw = needles > NEEDLE_AREA_SHARE;
+    let (soup, mesh, repair, prepared_input) =
+        if args.prepare || (raw && project.is_none() && !args.keep_input) {
+            // Edits name the file's vertices, so a project's mesh is never remeshed by itself.
+            let t = Instant::now();
+            let target = settings.target_vertices.unwrap_or(0);
+            let opts = IsotropicOptions::for_vertices(
+                &mesh,
+                prepare::DEFAULT_VERTICES.max(2 * target),
+                prepare::DEFAULT_FEATURE_ANGLE.min(args.features.unwrap_or(f64::INFINITY)),
+            );
+            let out = isotropic_remesh(&mesh, &opts)
+                .map_err(|e| format!("{}: remeshing the input failed: {e}", mesh_path.display()))?;
+            bar.line(format!(
+                "  input remeshed: {:.0} % of its area in needles; {} vertices -> {} (edge length \
+             {:.4}); --keep-input keeps it as it is",
+                100.0 * needles,
+                mesh.n_vertices(),
+                out.n_vertices(),
+                opts.edge_length
+            ));
+            let new_soup = crate::mesh::PolygonSoup {
+                source_polygon: (0..out.n_faces() as u32).collect(),
+                positions: out.positions().to_vec(),
+                triangles: out.faces().to_vec(),
+                ..Default::default()
+            };
+            let (m, r) = TriMesh::from_soup(&new_soup)
+                .map_err(|e| format!("{}: the remeshed input: {e}", mesh_path.display()))?;
+            let info = PreparedOut {
+                input_vertices: soup.positions.len(),
+                input_faces: soup.triangles.len(),
+                needle_area_share: needles,
+                edge_length: opts.edge_length,
+                ms: t.elapsed().as_secs_f64() * 1e3,
+            };
+            (new_soup, m, r, Some(info))
+        } else {
+            if raw {
+                bar.line(format!(
+                "  warning: {:.0} % of the input's area is in needles (a raw tessellation?): the \
+                 field may fold; `quadcover prepare` remeshes it (the project's edits name this \
+                 file's vertices)",
+                100.0 * needles
+            ));
+            }
+            (soup, mesh, repair, None)
+        };
     if let (Some(project), Some(pp)) = (&project, &args.project) {
         // The hash names the project's own mesh; another one given on the command line is the
         // user's choice.
@@ -595,6 +678,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     ));
     if let Some(path) = &args.report {
         let report = Report {
+            prepared_input,
             vertices: soup.positions.len(),
             faces: soup.triangles.len(),
             genus: topo.genus,

@@ -153,6 +153,32 @@ pub fn capped_cylinder(r: f64, h: f64, nu: usize, nv: usize, rings: usize) -> Tr
     build(p, f)
 }
 
+/// A closed cylinder as a CAD exporter tessellates it (an STL): the side one row of `nu` long
+/// quads split into two triangles each, each cap a fan from its first rim vertex. Every triangle
+/// is a needle and the caps have no interior vertex (`mesh::isotropic`).
+pub fn raw_cylinder(r: f64, h: f64, nu: usize) -> TriMesh {
+    let mut p = Vec::new();
+    for z in [0.0, h] {
+        for i in 0..nu {
+            let a = TAU * i as f64 / nu as f64;
+            p.push(DVec3::new(r * a.cos(), r * a.sin(), z));
+        }
+    }
+    let (bottom, top) = (0u32, nu as u32);
+    let at = |first: u32, i: usize| first + (i % nu) as u32;
+    let mut f = Vec::new();
+    for i in 0..nu {
+        let (a, b) = (at(bottom, i), at(bottom, i + 1));
+        let (c, d) = (at(top, i + 1), at(top, i));
+        quad(&mut f, a, b, c, d, false);
+    }
+    for i in 1..nu - 1 {
+        f.push([at(bottom, 0), at(bottom, i + 1), at(bottom, i)]);
+        f.push([at(top, 0), at(top, i), at(top, i + 1)]);
+    }
+    build(p, f)
+}
+
 /// A torus of revolution around z: major radius `big_r`, minor `r`, `nu` × `nv` quads.
 /// Vertex (i, j) sits at angles u = 2πi/nu (around z) and v = 2πj/nv (around the tube).
 pub fn torus(big_r: f64, r: f64, nu: usize, nv: usize) -> TriMesh {
