@@ -2258,3 +2258,39 @@ fn renormalize_field_is_a_solve_setting() {
         project.to_json()
     );
 }
+
+/// A raw CAD tessellation (needles, fanned caps) is flagged on load; File ▸ Remesh input writes
+/// an isotropic copy beside it and opens it, and the copy maps without a fold.
+#[test]
+fn a_raw_tessellation_is_flagged_and_remeshed_from_the_file_menu() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let raw = quadcover::mesh::generate::raw_cylinder(0.5, 1.2, 48);
+    let path = dir.path().join("part.obj");
+    quadcover::io::write_obj(
+        &path,
+        &quadcover::io::ObjOutput::new(raw.positions(), raw.faces()),
+    )
+    .expect("write the raw cylinder");
+    let mut h = harness_with(&dir.path().join("recent.txt"), Some(path.clone()), false);
+    settle(&mut h);
+    h.get_by_label("File: part.obj");
+    h.get_by_label_contains("needle triangles");
+
+    h.get_by_label("File").click();
+    h.run_steps(2);
+    h.get_by_label("Remesh input").click();
+    h.run_steps(2);
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    h.get_by_label("File: part-remeshed.obj");
+    let written = dir.path().join("part-remeshed.obj");
+    assert!(written.exists());
+    let mesh = h.state().document.mesh.clone().expect("a mesh");
+    assert!(mesh.n_vertices() > 10_000, "{} vertices", mesh.n_vertices());
+    assert!(!quadcover::mesh::isotropic::needs_remesh(&mesh));
+    assert!(
+        h.query_by_label_contains("needle triangles").is_none(),
+        "the copy is not flagged"
+    );
+    assert_eq!(mesh.euler_characteristic(), raw.euler_characteristic());
+}

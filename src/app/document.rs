@@ -260,7 +260,17 @@ fn finish_load(
     soup: crate::mesh::PolygonSoup,
     sha256: String,
 ) -> Result<LoadedDocument, String> {
-    let (mesh, report) = TriMesh::from_soup(&soup).map_err(|e| format!("{name}: {e}"))?;
+    let (mesh, mut report) = TriMesh::from_soup(&soup).map_err(|e| format!("{name}: {e}"))?;
+    let needles = crate::mesh::isotropic::needle_area_share(&mesh);
+    if needles > crate::mesh::isotropic::NEEDLE_AREA_SHARE {
+        report.warnings.push(format!(
+            "{:.0} % of the area is in needle triangles (a corner under {}°): a raw tessellation \
+             the field cannot follow (the map will fold); File > Remesh input makes an isotropic \
+             copy with the sharp features kept",
+            100.0 * needles,
+            crate::mesh::isotropic::NEEDLE_DEG
+        ));
+    }
     let stats = MeshStats::from(&mesh.topology());
     let scene = SceneData::from_trimesh(&mesh);
     Ok(LoadedDocument {

@@ -21,6 +21,9 @@ pub enum PendingAction {
     /// A mesh or a project file.
     Open(PathBuf),
     OpenDefault,
+    /// Remesh the document's mesh isotropically (`mesh::isotropic`), write it beside the mesh
+    /// file and open it.
+    RemeshInput,
     /// Close the window.
     Close,
 }
@@ -73,6 +76,7 @@ impl EditorApp {
         match action {
             PendingAction::Open(p) => self.open_path(&p, ctx),
             PendingAction::OpenDefault => self.open_default(ctx),
+            PendingAction::RemeshInput => self.remesh_input(ctx),
             PendingAction::Close => {
                 self.allow_close = true;
                 if let Some(ctx) = &self.ctx {
@@ -80,6 +84,50 @@ impl EditorApp {
                 }
             }
         }
+    }
+
+    /// Remeshes the document's mesh isotropically in the background
+    /// ([`crate::mesh::isotropic`], the same as `quadcover prepare`), writes it as
+    /// `<name>-remeshed.obj` beside the mesh file (the current folder for the default mesh) and
+    /// opens it as a new document: edits name vertices, so the old document's edits do not carry
+    /// over (the unsaved-changes question comes first).
+    pub fn remesh_input(&mut self, ctx: Option<egui::Context>) {
+        let Some(mesh) = self.document.mesh.clone() else {
+            return;
+        };
+        let stem = Path::new(&self.document.name)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "mesh".into());
+        let dir = self
+            .document
+            .path
+            .as_ref()
+            .and_then(|p| p.parent().map(Path::to_path_buf))
+            .unwrap_or_default();
+        let out = dir.join(format!("{stem}-remeshed.obj"));
+        self.jobs.push(Job::spawn(
+            format!("Remeshing {}", self.document.name),
+            ctx,
+            move |_| {
+                use crate::mesh::isotropic::{
+                    IsotropicOptions, PREPARED_FEATURE_ANGLE, PREPARED_VERTICES, isotropic_remesh,
+                };
+                let opts = IsotropicOptions::for_vertices(
+                    &mesh,
+                    PREPARED_VERTICES,
+                    PREPARED_FEATURE_ANGLE,
+                );
+                let remeshed =
+                    isotropic_remesh(&mesh, &opts).map_err(|e| format!("remeshing failed: {e}"))?;
+                crate::io::write_obj(
+                    &out,
+                    &crate::io::ObjOutput::new(remeshed.positions(), remeshed.faces()),
+                )
+                .map_err(|e| format!("{}: {e}", out.display()))?;
+                super::document::load_path(&out).map(|d| JobOutput::Loaded(Box::new(d)))
+            },
+        ));
     }
 
     /// Answers the unsaved-changes question: `Some(true)` saves first, `Some(false)` discards,
@@ -188,6 +236,7 @@ impl EditorApp {
         let what = match &action {
             PendingAction::Close => "Close the window".to_string(),
             PendingAction::OpenDefault => "Open the default mesh".to_string(),
+            PendingAction::RemeshInput => "Open a remeshed copy of the mesh".to_string(),
             PendingAction::Open(p) => format!("Open {}", p.display()),
         };
         let mut answer = None;

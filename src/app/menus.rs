@@ -101,8 +101,20 @@ impl EditorApp {
             self.request(PendingAction::OpenDefault);
             ui.close();
         }
-        ui.separator();
         let has_mesh = self.document.mesh.is_some();
+        if ui
+            .add_enabled(has_mesh, egui::Button::new("Remesh input"))
+            .on_hover_text(
+                "An isotropic copy of the mesh (about 20 000 vertices, sharp edges over 35° and \
+                 the boundary kept), written beside it as NAME-remeshed.obj and opened: for raw \
+                 CAD tessellations (needles, fanned faces), which the field cannot follow",
+            )
+            .clicked()
+        {
+            self.request(PendingAction::RemeshInput);
+            ui.close();
+        }
+        ui.separator();
         if ui
             .add_enabled(
                 has_mesh,

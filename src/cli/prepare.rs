@@ -13,10 +13,9 @@ use crate::io::{self, ObjOutput};
 use crate::load::load_mesh;
 use crate::mesh::isotropic::{IsotropicOptions, isotropic_remesh, needle_area_share};
 
-/// Vertices of a prepared mesh unless `--vertices` or `--edge-length` says otherwise.
-pub const DEFAULT_VERTICES: usize = 20_000;
-/// Feature angle (degrees) kept by default: QuadWild's default for sharp features.
-pub const DEFAULT_FEATURE_ANGLE: f64 = 35.0;
+pub use crate::mesh::isotropic::{
+    PREPARED_FEATURE_ANGLE as DEFAULT_FEATURE_ANGLE, PREPARED_VERTICES as DEFAULT_VERTICES,
+};
 
 #[derive(Debug, Args)]
 pub struct PrepareArgs {

@@ -33,6 +33,13 @@ pub const NEEDLE_DEG: f64 = 10.0;
 /// have at most 1.3 % (camelhead), raw CAD tessellations 40–100 %.
 pub const NEEDLE_AREA_SHARE: f64 = 0.2;
 
+/// Vertices of a prepared input (`quadcover prepare`, `solve` on a raw tessellation, the
+/// editor's *Remesh input*) unless asked otherwise: fine enough for the field under any grid of
+/// the usual densities, and about 2 s.
+pub const PREPARED_VERTICES: usize = 20_000;
+/// Feature angle (degrees) a prepared input keeps: QuadWild's default for sharp features.
+pub const PREPARED_FEATURE_ANGLE: f64 = 35.0;
+
 /// Options of [`isotropic_remesh`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IsotropicOptions {
