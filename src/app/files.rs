@@ -111,13 +111,9 @@ impl EditorApp {
             ctx,
             move |_| {
                 use crate::mesh::isotropic::{
-                    IsotropicOptions, PREPARED_FEATURE_ANGLE, PREPARED_VERTICES, isotropic_remesh,
+                    PREPARED_FEATURE_ANGLE, isotropic_remesh, prepared_options,
                 };
-                let opts = IsotropicOptions::for_vertices(
-                    &mesh,
-                    PREPARED_VERTICES,
-                    PREPARED_FEATURE_ANGLE,
-                );
+                let opts = prepared_options(&mesh, None, PREPARED_FEATURE_ANGLE);
                 let remeshed =
                     isotropic_remesh(&mesh, &opts).map_err(|e| format!("remeshing failed: {e}"))?;
                 crate::io::write_obj(

@@ -11,11 +11,11 @@ use clap::Args;
 use super::CliError;
 use crate::io::{self, ObjOutput};
 use crate::load::load_mesh;
-use crate::mesh::isotropic::{IsotropicOptions, isotropic_remesh, needle_area_share};
-
-pub use crate::mesh::isotropic::{
-    PREPARED_FEATURE_ANGLE as DEFAULT_FEATURE_ANGLE, PREPARED_VERTICES as DEFAULT_VERTICES,
+use crate::mesh::isotropic::{
+    IsotropicOptions, isotropic_remesh, needle_area_share, prepared_options,
 };
+
+pub use crate::mesh::isotropic::PREPARED_FEATURE_ANGLE as DEFAULT_FEATURE_ANGLE;
 
 #[derive(Debug, Args)]
 pub struct PrepareArgs {
@@ -24,7 +24,7 @@ pub struct PrepareArgs {
     /// Output OBJ.
     #[arg(long)]
     pub out: PathBuf,
-    /// About this many vertices (default 20000).
+    /// About this many vertices (default 20000, or the input's count if it has more).
     #[arg(long, conflicts_with = "edge_length")]
     pub vertices: Option<usize>,
     /// Target edge length in model units.
@@ -51,11 +51,10 @@ pub fn run(args: &PrepareArgs) -> Result<(), CliError> {
     }
     let loaded = load_mesh(&args.mesh)?;
     let mesh = &loaded.mesh;
-    let mut opts = IsotropicOptions::for_vertices(
-        mesh,
-        args.vertices.unwrap_or(DEFAULT_VERTICES),
-        args.features,
-    );
+    let mut opts = match args.vertices {
+        Some(v) => IsotropicOptions::for_vertices(mesh, v, args.features),
+        None => prepared_options(mesh, None, args.features),
+    };
     if let Some(l) = args.edge_length {
         opts.edge_length = l;
     }

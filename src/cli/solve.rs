@@ -18,7 +18,7 @@ use crate::field::{self, Symmetry};
 use crate::io;
 use crate::mesh::TriMesh;
 use crate::mesh::isotropic::{
-    IsotropicOptions, NEEDLE_AREA_SHARE, isotropic_remesh, needle_area_share,
+    NEEDLE_AREA_SHARE, isotropic_remesh, needle_area_share, prepared_options,
 };
 use crate::param;
 
@@ -360,10 +360,9 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         if args.prepare || (raw && project.is_none() && !args.keep_input) {
             // Edits name the file's vertices, so a project's mesh is never remeshed by itself.
             let t = Instant::now();
-            let target = settings.target_vertices.unwrap_or(0);
-            let opts = IsotropicOptions::for_vertices(
+            let opts = prepared_options(
                 &mesh,
-                prepare::DEFAULT_VERTICES.max(2 * target),
+                settings.target_vertices,
                 prepare::DEFAULT_FEATURE_ANGLE.min(args.features.unwrap_or(f64::INFINITY)),
             );
             let out = isotropic_remesh(&mesh, &opts)

@@ -34,8 +34,8 @@ pub const NEEDLE_DEG: f64 = 10.0;
 pub const NEEDLE_AREA_SHARE: f64 = 0.2;
 
 /// Vertices of a prepared input (`quadcover prepare`, `solve` on a raw tessellation, the
-/// editor's *Remesh input*) unless asked otherwise: fine enough for the field under any grid of
-/// the usual densities, and about 2 s.
+/// editor's *Remesh input*) unless asked otherwise or the input has more ([`prepared_options`]):
+/// fine enough for the field under any grid of the usual densities, and about 2 s.
 pub const PREPARED_VERTICES: usize = 20_000;
 /// Feature angle (degrees) a prepared input keeps: QuadWild's default for sharp features.
 pub const PREPARED_FEATURE_ANGLE: f64 = 35.0;
@@ -64,6 +64,21 @@ impl IsotropicOptions {
             iterations: 10,
         }
     }
+}
+
+/// The options `solve`, `quadcover prepare` and the editor use: [`PREPARED_VERTICES`] vertices,
+/// or the input's own count when it has more (a large scan keeps its detail), or twice the
+/// grid's target vertices (the field needs a finer mesh than the grid); sharp edges at
+/// `feature_angle_deg`.
+pub fn prepared_options(
+    mesh: &TriMesh,
+    target_vertices: Option<usize>,
+    feature_angle_deg: f64,
+) -> IsotropicOptions {
+    let vertices = PREPARED_VERTICES
+        .max(mesh.n_vertices())
+        .max(2 * target_vertices.unwrap_or(0));
+    IsotropicOptions::for_vertices(mesh, vertices, feature_angle_deg)
 }
 
 /// The share of `mesh`'s area in triangles whose smallest angle is below [`NEEDLE_DEG`].
@@ -500,12 +515,12 @@ impl Work<'_> {
                     .iter()
                     .find(|&&v| v != a && v != b)
                     .expect("d");
-                if c == d || self.neighbours(c).contains(&d) {
-                    continue;
-                }
                 let p = |v: u32| self.pos[v as usize];
-                if angle_at(p(a), p(b), p(c)) + angle_at(p(a), p(b), p(d))
-                    <= std::f64::consts::PI + 1e-9
+                // the cheap test first: most edges are Delaunay already
+                if c == d
+                    || angle_at(p(a), p(b), p(c)) + angle_at(p(a), p(b), p(d))
+                        <= std::f64::consts::PI + 1e-9
+                    || self.neighbours(c).contains(&d)
                 {
                     continue;
                 }

@@ -261,6 +261,9 @@ pub(crate) struct Traced {
     emits: Vec<Vec<(usize, usize, Aff)>>,
     /// Per curve its ear tips ([`is_ear_tip`]), which its line does not hold.
     ears: Vec<Vec<usize>>,
+    /// The reduced lattice basis of C_c w = 0 over [`Traced::involved`] (computed once: the
+    /// re-rounding rounds many targets under the same equations).
+    kernel: std::sync::OnceLock<Result<Vec<Vec<i128>>, String>>,
 }
 
 /// Whether the vertex at position `i` of a piece is the tip of an ear: it and its two
@@ -351,6 +354,7 @@ impl Traced {
             singular_on: Vec::new(),
             emits: Vec::new(),
             ears: Vec::new(),
+            kernel: std::sync::OnceLock::new(),
         };
         // Per curve: forms at its emissions.
         let mut fixed_rows: Vec<(Form, usize)> = Vec::new();
@@ -536,16 +540,19 @@ impl Traced {
         if !involved.is_empty() {
             let t: Vec<f64> = involved.iter().map(|&k| target[k]).collect();
             let metric = self.metric(hessian, &involved);
-            let sol =
-                super::integer::nearest_integer_solution(&rows, involved.len(), &t, Some(&metric))
-                    .map_err(|why| {
-                        let all: Vec<usize> = (0..self.ids.len()).collect();
-                        contradiction(
-                            &self.ids,
-                            &all,
-                            format!("{}: {why}", names(&self.ids, &all)),
-                        )
-                    })?;
+            let sol = self
+                .kernel(&rows, involved.len())
+                .and_then(|basis| {
+                    super::integer::nearest_in_lattice(basis, involved.len(), &t, Some(&metric))
+                })
+                .map_err(|why| {
+                    let all: Vec<usize> = (0..self.ids.len()).collect();
+                    contradiction(
+                        &self.ids,
+                        &all,
+                        format!("{}: {why}", names(&self.ids, &all)),
+                    )
+                })?;
             for (i, &k) in involved.iter().enumerate() {
                 w[k] = sol[i] as f64;
             }
@@ -554,6 +561,15 @@ impl Traced {
             .map(|k| self.lines.vector([w[2 * k], w[2 * k + 1]]))
             .collect();
         Ok((gaps, w))
+    }
+
+    /// The reduced basis of the integer solutions of `rows` (those of [`Traced::involved`]),
+    /// computed on first use.
+    fn kernel(&self, rows: &[Vec<(usize, i128)>], n: usize) -> Result<&Vec<Vec<i128>>, String> {
+        self.kernel
+            .get_or_init(|| super::integer::reduced_kernel(rows, n))
+            .as_ref()
+            .map_err(Clone::clone)
     }
 
     /// The unknowns in some equation, and the equations over them renumbered in that order.
@@ -599,7 +615,8 @@ impl Traced {
             };
         }
         let t: Vec<f64> = involved.iter().map(|&x| out[x]).collect();
-        let sol = super::integer::nearest_integer_solution(&rows, n, &t, Some(&metric)).ok()?;
+        let basis = self.kernel(&rows, n).ok()?;
+        let sol = super::integer::nearest_in_lattice(basis, n, &t, Some(&metric)).ok()?;
         if sol[at] as f64 != out[k] {
             return None;
         }
