@@ -751,3 +751,125 @@ fn a_raw_cad_cylinder_maps_once_remeshed() {
     let (_, share, _) = remesh_along_curves(&base, &state, &solved, "remeshed raw cylinder");
     assert!(share > 0.99, "{share}");
 }
+
+/// The command line on a raw CAD tessellation: `solve` remeshes it by itself (REPORT.json's
+/// `prepared_input`, the output OBJ is the remeshed mesh) and maps it without a fold;
+/// `--keep-input` keeps the input and folds; `--prepare` with a project is refused;
+/// `quadcover prepare` writes a mesh without needles.
+#[test]
+fn cli_remeshes_raw_tessellations() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = generate::raw_cylinder(0.5, 1.2, 48);
+    let part = dir.path().join("part.obj");
+    quadcover::io::write_obj(
+        &part,
+        &quadcover::io::ObjOutput::new(raw.positions(), raw.faces()),
+    )
+    .unwrap();
+    let exe = env!("CARGO_BIN_EXE_quadcover");
+    let run = |extra: &[&str], report: &std::path::Path| {
+        std::process::Command::new(exe)
+            .args(["solve", part.to_str().unwrap(), "--features", "40"])
+            .args(extra)
+            .arg("--out")
+            .arg(dir.path().join("uv.obj"))
+            .arg("--report")
+            .arg(report)
+            .output()
+            .unwrap()
+    };
+    let report = dir.path().join("r.json");
+    let out = run(&[], &report);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("input remeshed"));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(r["prepared_input"]["input_vertices"], 96);
+    assert!(r["prepared_input"]["needle_area_share"].as_f64().unwrap() > 0.99);
+    assert_eq!(r["flipped_faces"], 0);
+    let vertices = r["vertices"].as_u64().unwrap();
+    assert!(vertices > 10_000, "{vertices}");
+    let uv = std::fs::read_to_string(dir.path().join("uv.obj")).unwrap();
+    assert_eq!(
+        uv.lines().filter(|l| l.starts_with("v ")).count() as u64,
+        vertices,
+        "the output is the remeshed mesh"
+    );
+
+    let kept = dir.path().join("k.json");
+    let out = run(&["--keep-input"], &kept);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let k: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&kept).unwrap()).unwrap();
+    assert!(k.get("prepared_input").is_none());
+    assert_eq!(k["vertices"], 96);
+    assert!(
+        k["flipped_faces"].as_u64().unwrap() > 0,
+        "the raw input folds"
+    );
+
+    let project = dir.path().join("p.json");
+    std::fs::write(
+        &project,
+        r#"{"format": "quadcover-project", "version": 1, "mesh": {"path": "part.obj"}, "settings": {}, "edits": []}"#,
+    )
+    .unwrap();
+    let out = std::process::Command::new(exe)
+        .args([
+            "solve",
+            "--project",
+            project.to_str().unwrap(),
+            "--prepare",
+            "--out",
+        ])
+        .arg(dir.path().join("uv2.obj"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("quadcover prepare"));
+
+    let prepared = dir.path().join("prepared.obj");
+    let out = std::process::Command::new(exe)
+        .args([
+            "prepare",
+            part.to_str().unwrap(),
+            "--vertices",
+            "3000",
+            "--out",
+        ])
+        .arg(&prepared)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mesh = quadcover::load::load_mesh(&prepared).unwrap().mesh;
+    assert!(!quadcover::mesh::isotropic::needs_remesh(&mesh));
+    assert!(
+        (2000..4500).contains(&mesh.n_vertices()),
+        "{}",
+        mesh.n_vertices()
+    );
+    let out = std::process::Command::new(exe)
+        .args([
+            "prepare",
+            part.to_str().unwrap(),
+            "--edge-length",
+            "-1",
+            "--out",
+        ])
+        .arg(&prepared)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+}
