@@ -176,10 +176,10 @@ pub fn isotropic_remesh(mesh: &TriMesh, opts: &IsotropicOptions) -> Result<TriMe
     for _ in 0..opts.iterations {
         w.split_long(hi);
         w.collapse_short(lo, hi);
-        w.flip_delaunay(opts.feature_angle_deg);
+        w.flip_delaunay(opts.feature_angle_deg, 2);
         w.smooth();
     }
-    w.flip_delaunay(opts.feature_angle_deg);
+    w.flip_delaunay(opts.feature_angle_deg, 10);
     w.finish()
 }
 
@@ -481,10 +481,12 @@ impl Work<'_> {
     }
 
     /// Flips non-feature edges whose two opposite angles sum to more than π (Delaunay), where
-    /// the two faces are flatter than the feature angle and the flip turns no face over.
-    fn flip_delaunay(&mut self, feature_angle_deg: f64) {
+    /// the two faces are flatter than the feature angle and the flip turns no face over; at
+    /// most `passes` passes over the edges (between smoothing steps two suffice: the next
+    /// round flips again).
+    fn flip_delaunay(&mut self, feature_angle_deg: f64, passes: usize) {
         let cos = feature_angle_deg.to_radians().cos();
-        for _ in 0..10 {
+        for _ in 0..passes {
             let mut flipped = 0;
             for (a, b) in self.edges() {
                 if self.feature.contains_key(&(a, b)) {
