@@ -211,6 +211,12 @@ fn info_prints_statistics_for_every_shared_mesh() {
                 .any(|l| l.starts_with("genus") && l.ends_with(&format!(" {genus}"))),
             "{name}\n{text}"
         );
+        // none of them is a raw tessellation that `solve` would remesh by itself
+        assert!(
+            text.lines()
+                .any(|l| l.starts_with("needles") && !l.contains("raw tessellation")),
+            "{name}\n{text}"
+        );
     }
 }
 

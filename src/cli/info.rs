@@ -6,6 +6,7 @@ use clap::Args;
 
 use super::CliError;
 use crate::load::load_mesh;
+use crate::mesh::isotropic::{NEEDLE_AREA_SHARE, NEEDLE_DEG, needle_area_share};
 
 #[derive(Debug, Args)]
 pub struct InfoArgs {
@@ -19,11 +20,13 @@ pub struct InfoArgs {
 pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     let loaded = load_mesh(&args.mesh)?;
     let topology = loaded.mesh.topology();
+    let needles = needle_area_share(&loaded.mesh);
     if args.json {
         let value = serde_json::json!({
             "file": args.mesh,
             "file_vertices": loaded.file_vertices,
             "topology": topology,
+            "needle_area_share": needles,
             "warnings": loaded.report.warnings,
         });
         println!("{}", serde_json::to_string_pretty(&value)?);
@@ -37,6 +40,16 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     let (lo, hi) = loaded.mesh.bounding_box();
     println!("bounding box    {:?} .. {:?}", lo.to_array(), hi.to_array());
     println!("mean edge       {:.6}", loaded.mesh.mean_edge_length());
+    print!(
+        "needles         {:.1} % of the area (triangles with a corner under {}°)",
+        100.0 * needles,
+        NEEDLE_DEG
+    );
+    if needles > NEEDLE_AREA_SHARE {
+        println!(": a raw tessellation; `solve` remeshes it first (`quadcover prepare`)");
+    } else {
+        println!();
+    }
     if loaded.report.warnings.is_empty() {
         println!("warnings        none");
     } else {
