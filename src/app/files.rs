@@ -88,7 +88,8 @@ impl EditorApp {
 
     /// Remeshes the document's mesh isotropically in the background
     /// ([`crate::mesh::isotropic`], the same as `quadcover prepare`), writes it as
-    /// `<name>-remeshed.obj` beside the mesh file (the current folder for the default mesh) and
+    /// `<name>-remeshed.obj` beside the mesh file (the current folder for the default mesh or a
+    /// read-only folder) and
     /// opens it as a new document: edits name vertices, so the old document's edits do not carry
     /// over (the unsaved-changes question comes first).
     pub fn remesh_input(&mut self, ctx: Option<egui::Context>) {
@@ -104,6 +105,9 @@ impl EditorApp {
             .path
             .as_ref()
             .and_then(|p| p.parent().map(Path::to_path_buf))
+            // a folder marked read-only (shared meshes) is respected even where the user could
+            // write anyway (root): the current folder instead
+            .filter(|d| !d.metadata().is_ok_and(|m| m.permissions().readonly()))
             .unwrap_or_default();
         let out = dir.join(format!("{stem}-remeshed.obj"));
         self.jobs.push(Job::spawn(
@@ -116,11 +120,18 @@ impl EditorApp {
                 let opts = prepared_options(&mesh, None, PREPARED_FEATURE_ANGLE);
                 let remeshed =
                     isotropic_remesh(&mesh, &opts).map_err(|e| format!("remeshing failed: {e}"))?;
-                crate::io::write_obj(
-                    &out,
-                    &crate::io::ObjOutput::new(remeshed.positions(), remeshed.faces()),
-                )
-                .map_err(|e| format!("{}: {e}", out.display()))?;
+                let obj = crate::io::ObjOutput::new(remeshed.positions(), remeshed.faces());
+                // A read-only folder (shared meshes): the current folder instead.
+                let out = match crate::io::write_obj(&out, &obj) {
+                    Ok(()) => out,
+                    Err(first) => {
+                        let here = PathBuf::from(out.file_name().unwrap_or_default());
+                        crate::io::write_obj(&here, &obj).map_err(|e| {
+                            format!("{}: {first}; {}: {e}", out.display(), here.display())
+                        })?;
+                        here
+                    }
+                };
                 super::document::load_path(&out).map(|d| JobOutput::Loaded(Box::new(d)))
             },
         ));
