@@ -50,9 +50,9 @@ pub struct SolveArgs {
     #[arg(long, conflicts_with = "prepare")]
     pub keep_input: bool,
     /// Remesh the input isotropically first (as `quadcover prepare`), keeping sharp features and
-    /// the boundary. Without a project this happens by itself when more than 20 % of the input's
-    /// area is in needles (triangles with a corner under 10°: raw CAD tessellations); the output
-    /// OBJ and REPORT.json then describe the remeshed mesh.
+    /// the boundary. Without a project or a field file this happens by itself when more than
+    /// 20 % of the input's area is in needles (triangles with a corner under 10°: raw CAD
+    /// tessellations); the output OBJ and REPORT.json then describe the remeshed mesh.
     #[arg(long)]
     pub prepare: bool,
     /// Weight of curvature alignment against smoothness (eq. 3.5–3.6).
@@ -344,6 +344,13 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let bar = Progress::new();
     bar.start("load");
     let t = Instant::now();
+    if args.prepare && args.field.is_some() {
+        return Err(
+            "--prepare with --field: the field file is a field on the mesh file's faces; \
+             remesh the mesh with `quadcover prepare` and design the field on that"
+                .into(),
+        );
+    }
     if args.prepare && project.is_some() {
         return Err(
             "--prepare with --project: the project's edits name its mesh file's vertices; \
@@ -357,8 +364,9 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let needles = needle_area_share(&mesh);
     let raw = needles > NEEDLE_AREA_SHARE;
     let (soup, mesh, repair, prepared_input) =
-        if args.prepare || (raw && project.is_none() && !args.keep_input) {
-            // Edits name the file's vertices, so a project's mesh is never remeshed by itself.
+        if args.prepare || (raw && project.is_none() && args.field.is_none() && !args.keep_input) {
+            // Edits name the file's vertices and a field file its faces, so with a project or a
+            // field the mesh is never remeshed by itself.
             let t = Instant::now();
             let opts = prepared_options(
                 &mesh,
@@ -395,8 +403,8 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             if raw {
                 bar.line(format!(
                 "  warning: {:.0} % of the input's area is in needles (a raw tessellation?): the \
-                 field may fold; `quadcover prepare` remeshes it (the project's edits name this \
-                 file's vertices)",
+                 map may fold; `quadcover prepare` remeshes it (kept as it is here: \
+                 --keep-input, or a project or field file, which name its vertices and faces)",
                 100.0 * needles
             ));
             }
