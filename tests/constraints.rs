@@ -835,6 +835,21 @@ fn cli_remeshes_raw_tessellations() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("quadcover prepare"));
+    // a field file names the file's faces: refused with --prepare too
+    let out = std::process::Command::new(exe)
+        .args([
+            "solve",
+            part.to_str().unwrap(),
+            "--prepare",
+            "--field",
+            "f.json",
+            "--out",
+        ])
+        .arg(dir.path().join("uv3.obj"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--field"));
 
     let prepared = dir.path().join("prepared.obj");
     let out = std::process::Command::new(exe)
