@@ -179,35 +179,16 @@ fn constraint_costs(args: &BenchArgs) -> Result<(), CliError> {
         let design_ms = t.elapsed().as_secs_f64() * 1e3;
         for (what, state, field_ms) in [("without curves", &s0, f64::NAN), (label, &s1, design_ms)]
         {
-            let solved = base.solve(state, &crate::edit::never)?;
-            let lap = |name: &str| {
-                1e3 * solved
-                    .timings
-                    .iter()
-                    .filter(|(s, _)| s.contains(name))
-                    .map(|(_, t)| t)
-                    .sum::<f64>()
-            };
-            println!(
-                "{:<34} {:>8} {:>10.1} {:>12.1} {:>10.1} {:>8} {:>8.3}",
-                format!("{} {}", file.trim_end_matches(".obj"), what),
-                state.curves.len(),
-                field_ms,
-                lap("factorizations"),
-                lap("QuadCover solve"),
-                solved.param.flipped_faces,
-                solved.param.conformal_distortion.p99
-            );
+            let name = format!("{} {}", file.trim_end_matches(".obj"), what);
+            constraint_row(&name, &base, state, field_ms)?;
         }
     }
     // A raw CAD tessellation (needles, caps fanned from a rim vertex): remeshed first, as
     // `solve` does by itself (`mesh::isotropic`), then its features at 40°.
-    use crate::mesh::isotropic::{
-        IsotropicOptions, PREPARED_FEATURE_ANGLE, PREPARED_VERTICES, isotropic_remesh,
-    };
+    use crate::mesh::isotropic::{PREPARED_FEATURE_ANGLE, isotropic_remesh, prepared_options};
     let raw = crate::mesh::generate::raw_cylinder(0.5, 1.2, 48);
     let t = std::time::Instant::now();
-    let opts = IsotropicOptions::for_vertices(&raw, PREPARED_VERTICES, PREPARED_FEATURE_ANGLE);
+    let opts = prepared_options(&raw, None, PREPARED_FEATURE_ANGLE);
     let mesh = isotropic_remesh(&raw, &opts)?;
     let prepare_ms = t.elapsed().as_secs_f64() * 1e3;
     let base = Base::for_mesh(std::sync::Arc::new(mesh), Settings::default())?;
@@ -219,28 +200,39 @@ fn constraint_costs(args: &BenchArgs) -> Result<(), CliError> {
         &crate::edit::never,
     )?;
     let design_ms = t.elapsed().as_secs_f64() * 1e3;
-    let solved = base.solve(&s1, &crate::edit::never)?;
-    let lap = |name: &str| {
+    constraint_row("raw cylinder remeshed, features 40", &base, &s1, design_ms)?;
+    println!(
+        "  (the raw cylinder: 96 vertices, remeshed to {} in {prepare_ms:.0} ms)",
+        base.mesh().n_vertices()
+    );
+    Ok(())
+}
+
+/// One row of the constraint table: `state` solved on `base`, with the field design's time.
+fn constraint_row(
+    name: &str,
+    base: &Base,
+    state: &crate::edit::EditState,
+    field_ms: f64,
+) -> Result<(), CliError> {
+    let solved = base.solve(state, &crate::edit::never)?;
+    let lap = |stage: &str| {
         1e3 * solved
             .timings
             .iter()
-            .filter(|(s, _)| s.contains(name))
+            .filter(|(s, _)| s.contains(stage))
             .map(|(_, t)| t)
             .sum::<f64>()
     };
     println!(
         "{:<34} {:>8} {:>10.1} {:>12.1} {:>10.1} {:>8} {:>8.3}",
-        "raw cylinder remeshed, features 40",
-        s1.curves.len(),
-        design_ms,
+        name,
+        state.curves.len(),
+        field_ms,
         lap("factorizations"),
         lap("QuadCover solve"),
         solved.param.flipped_faces,
         solved.param.conformal_distortion.p99
-    );
-    println!(
-        "  (the raw cylinder: 96 vertices, remeshed to {} in {prepare_ms:.0} ms)",
-        base.mesh().n_vertices()
     );
     Ok(())
 }

@@ -389,8 +389,12 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 triangles: out.faces().to_vec(),
                 ..Default::default()
             };
-            let (m, r) = TriMesh::from_soup(&new_soup)
-                .map_err(|e| format!("{}: the remeshed input: {e}", mesh_path.display()))?;
+            // The remeshed mesh is valid already and is its own "file": identity maps back.
+            let r = crate::mesh::RepairReport {
+                original_vertex: (0..out.n_vertices() as u32).collect(),
+                original_face: (0..out.n_faces() as u32).collect(),
+                ..Default::default()
+            };
             let info = PreparedOut {
                 input_vertices: soup.positions.len(),
                 input_faces: soup.triangles.len(),
@@ -398,7 +402,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 edge_length: opts.edge_length,
                 ms: t.elapsed().as_secs_f64() * 1e3,
             };
-            (new_soup, m, r, Some(info))
+            (new_soup, out, r, Some(info))
         } else {
             if raw {
                 bar.line(format!(
