@@ -84,11 +84,20 @@ pub fn snap_boundary(remesh: &mut Remesh, sides: usize, h: f64) -> usize {
         }
         let mut lp = Vec::new();
         let mut v = s;
+        let mut open = false;
         while seen.insert(v) {
             lp.push(v);
-            v = next[&v];
+            match next.get(&v) {
+                Some(&w) => v = w,
+                None => {
+                    // The chain ends: a boundary edge in two faces or an inconsistently
+                    // oriented face (a patched place); leave it to the local steps.
+                    open = true;
+                    break;
+                }
+            }
         }
-        if v != s || lp.len() < 3 {
+        if open || v != s || lp.len() < 3 {
             continue;
         }
         // Runs: maximal stretches of the loop along one face. Between two runs lies a
