@@ -55,7 +55,12 @@ fn check_solved(base: &Base, state: &EditState, solved: &Solved) {
         let sum: i64 = state.singularities.values().map(|&k| k as i64).sum();
         assert_eq!(sum, n * mesh.euler_characteristic(), "Poincaré–Hopf");
     }
-    let err = contract_error(mesh, &solved.param.uv, n as usize, solved.param.lattice);
+    let err = contract_error(
+        mesh,
+        &solved.param.uv,
+        n as usize,
+        solved.param.lattice.transitions(),
+    );
     assert!(err < 1e-6, "seam error {err:e}");
     assert!(solved.param.seam_max_error < 1e-6);
 }
@@ -756,7 +761,7 @@ fn the_global_steps_map_is_previewed_before_the_repair() {
     let preview = &seen[0];
     assert_eq!(quadcover::param::folded_faces(preview).len(), before);
     let n = base.settings().symmetry as usize;
-    let err = contract_error(base.mesh(), preview, n, solved.param.lattice);
+    let err = contract_error(base.mesh(), preview, n, solved.param.lattice.transitions());
     assert!(err < 1e-6, "the preview's seam error {err:e}");
     assert_eq!(solved.param.flipped_faces, 0);
     assert_ne!(bits(preview), bits(&solved.param.uv));

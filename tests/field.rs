@@ -864,7 +864,8 @@ fn no_close_opposite_pair_survives_the_cancellation() {
 /// `renormalize_field` (MBO steps on the relaxed solve, `smoothing::RENORMALIZE_STEPS`): the
 /// field's energy E_smooth + τ E_align is lower than the plain relaxed solve's rounding gives,
 /// and so is the map's conformal distortion (measured 2026-12-03, N = 4, default settings:
-/// spot 1.268 → 1.171, fertility 1.242 → 1.181), with no fold after the repair.
+/// spot 1.253 → 1.161, fertility 1.208 → 1.181 since the gaps are rounded to D₂; 1.242 →
+/// 1.181 on 2Z²), with no fold after the repair.
 #[test]
 fn renormalizing_the_field_lowers_its_energy_and_the_distortion() {
     use quadcover::edit::Settings;
@@ -895,7 +896,7 @@ fn renormalizing_the_field_lowers_its_energy_and_the_distortion() {
         );
         assert!(e1 < e0, "{name}: energy {e0} → {e1}");
         assert!(
-            p1.conformal_distortion.mean < 0.97 * p0.conformal_distortion.mean,
+            p1.conformal_distortion.mean < 0.985 * p0.conformal_distortion.mean,
             "{name}: {:?} → {:?}",
             p0.conformal_distortion,
             p1.conformal_distortion

@@ -523,7 +523,7 @@ fn real_meshes_all_symmetries() {
             .unwrap();
             let secs = t.elapsed().as_secs_f64();
             assert_finite(&p);
-            let err = contract_error(&mesh, &p.uv, n as usize, p.lattice);
+            let err = contract_error(&mesh, &p.uv, n as usize, p.lattice.transitions());
             let s = p.singularities.iter().filter(|x| x.holonomy != 0).count();
             let expected = param::expected_cut_paths(topo.genus as usize, topo.boundary_loops, s);
             eprintln!(

@@ -115,7 +115,11 @@ fn measure(mesh: &TriMesh, p: &Parameterization) -> Measured {
         seam = seam
             .max(transition_error(p, e, uv[h0], uv[mesh.next(h1)]))
             .max(transition_error(p, e, uv[mesh.next(h0)], uv[h1]));
-        lattice = lattice.max(p.lattice.distance(p.transitions[e].translation));
+        lattice = lattice.max(
+            p.lattice
+                .transitions()
+                .distance(p.transitions[e].translation),
+        );
     }
     let (mut quad_seam, mut quad_outer, mut min_quad_area) = (0.0f64, 0.0f64, f64::INFINITY);
     let mut total_area = 0.0;
@@ -124,7 +128,11 @@ fn measure(mesh: &TriMesh, p: &Parameterization) -> Measured {
         for k in 0..d {
             let h = star_halfedge(mesh, pole, k);
             let e = mesh.edge(h);
-            lattice = lattice.max(p.lattice.distance(p.transitions[e].translation));
+            lattice = lattice.max(
+                p.lattice
+                    .transitions()
+                    .distance(p.transitions[e].translation),
+            );
             // Quad k = (a_k, a_{k+1}, q_{k+1}, q_k) in chart k; its side on star edge k is
             // (a_k, q_k); quad k − 1's is (a_k, q_k) = (corner 1, corner 2) in chart k − 1.
             let (here, before) = (&pole.quads[k], &pole.quads[(k + d - 1) % d]);

@@ -95,10 +95,10 @@ fn check(name: &str, mesh: &TriMesh, p: &Parameterization, plain: &Parameterizat
     assert_eq!(p.flipped_faces_before_repair, plain.flipped_faces, "{name}");
     assert_eq!(param::folded_faces(&plain.uv).len(), plain.flipped_faces);
     assert_eq!(miswound(mesh, p), p.miswound, "{name}: mis-wound vertices");
-    let err = contract_error(mesh, &p.uv, n, p.lattice);
+    let err = contract_error(mesh, &p.uv, n, p.lattice.transitions());
     assert!(err < 1e-6, "{name}: seam error {err}");
     for (k, g) in p.gaps.iter().enumerate() {
-        let q = p.lattice.nearest(*g);
+        let q = p.lattice.transitions().nearest(*g);
         assert!(
             (q[0] - g[0]).abs() < 1e-9 && (q[1] - g[1]).abs() < 1e-9,
             "{name}: gap {k} = {g:?} off the lattice"
@@ -121,7 +121,7 @@ fn check(name: &str, mesh: &TriMesh, p: &Parameterization, plain: &Parameterizat
             );
         }
         if n == 4 {
-            // ½Z², or Z² on the 2Z² lattice.
+            // ½Z², or Z² with `pure_quad` (gaps on D₂ and 2Z²).
             let s = if p.lattice == Lattice::TwoZ2 {
                 1.0
             } else {
@@ -135,11 +135,12 @@ fn check(name: &str, mesh: &TriMesh, p: &Parameterization, plain: &Parameterizat
     }
 }
 
-/// Shared-mesh cases left with folds after the repair, and how many at most.
+/// Shared-mesh cases left with folds after the repair, and how many at most. (Spot N = 4 on
+/// 2Z² at 1500 vertices kept 1 until its gaps went to D₂ (2026-12-03); spot N = 6 at 1500
+/// went from 1 to 2 when its thin horns got a finer grid: docs/untangling.md.)
 const KNOWN_LEFT: &[(&str, usize)] = &[
     ("max-planck.obj N=6 None", 1),
-    ("spot.obj N=4 2Z² Some(1500)", 1),
-    ("spot.obj N=6 Some(1500)", 1),
+    ("spot.obj N=6 Some(1500)", 2),
 ];
 
 /// The bunny at the default density, N = 4 on ½Z² and on 2Z²: the global step leaves a dozen

@@ -91,6 +91,11 @@ impl Lines {
                     basis: [[1.0, 0.0], [0.5, s3 / 2.0]],
                 }
             }
+            Lattice::D2 => Lines {
+                normals: vec![[1.0, 0.0], [0.0, 1.0]],
+                spacing: 1.0,
+                basis: [[1.0, 1.0], [1.0, -1.0]],
+            },
             _ => {
                 let scale = if lattice == Lattice::TwoZ2 { 2.0 } else { 1.0 };
                 Lines {

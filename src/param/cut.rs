@@ -683,6 +683,26 @@ impl CutGraph {
             .collect()
     }
 
+    /// Per generator the holonomies at the two ends of its loop (the roots its T-paths reach; 0
+    /// at a boundary vertex). Only loops ending at a branch point enter the monodromy around it
+    /// (a small loop around it crosses just the T-edges that end there), so only their gaps
+    /// decide where it lands (eq. 2.40).
+    pub fn loop_end_holonomies(&self, mesh: &TriMesh) -> Vec<[u8; 2]> {
+        let root = |mut v: usize| {
+            while self.parent_vertex[v] != NONE {
+                v = self.parent_vertex[v] as usize;
+            }
+            v
+        };
+        self.generators
+            .iter()
+            .map(|&e| {
+                let [a, b] = mesh.edge_vertices(e as usize);
+                [self.holonomy[root(a)], self.holonomy[root(b)]]
+            })
+            .collect()
+    }
+
     /// Edges whose transition is not the identity (the effective, pruned cut graph).
     pub fn cut_edges(&self) -> Vec<usize> {
         (0..self.transitions.len())

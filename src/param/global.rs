@@ -348,7 +348,7 @@ impl GlobalSystem {
         mesh: &TriMesh,
         rots: &Rots,
         measured: &[[f64; 2]],
-        lattice: Lattice,
+        lattices: &[Lattice],
     ) -> Result<Vec<[f64; 2]>, ParamError> {
         let nl = self.n_loops;
         let m = 2 * nl;
@@ -359,7 +359,11 @@ impl GlobalSystem {
         let h = self.gap_hessian(mesh, rots, &all)?;
         let Some(mut cov) = dense_spd_inverse(&h, m) else {
             // Not positive definite numerically: fall back to direct rounding.
-            return Ok(measured.iter().map(|&p| lattice.nearest(p)).collect());
+            return Ok(measured
+                .iter()
+                .zip(lattices)
+                .map(|(&p, l)| l.nearest(p))
+                .collect());
         };
         let mut w: Vec<f64> = measured.iter().flat_map(|p| [p[0], p[1]]).collect();
         let mut free: Vec<usize> = (0..nl).collect();
@@ -368,13 +372,13 @@ impl GlobalSystem {
                 .iter()
                 .enumerate()
                 .min_by(|a, b| {
-                    let da = lattice.distance([w[2 * a.1], w[2 * a.1 + 1]]);
-                    let db = lattice.distance([w[2 * b.1], w[2 * b.1 + 1]]);
+                    let da = lattices[*a.1].distance([w[2 * a.1], w[2 * a.1 + 1]]);
+                    let db = lattices[*b.1].distance([w[2 * b.1], w[2 * b.1 + 1]]);
                     da.total_cmp(&db)
                 })
                 .unwrap();
             free.swap_remove(pos);
-            let target = lattice.nearest([w[2 * k], w[2 * k + 1]]);
+            let target = lattices[k].nearest([w[2 * k], w[2 * k + 1]]);
             let delta = [target[0] - w[2 * k], target[1] - w[2 * k + 1]];
             let ckk: M2 = [
                 cov[2 * k * m + 2 * k],

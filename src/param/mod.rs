@@ -270,6 +270,13 @@ impl ParamAnalysis {
 pub struct QuadCover {
     symmetry: usize,
     lattice: Lattice,
+    /// Per cut path the lattice its gap is rounded to. With 2Z² (`pure_quad`) a loop's gap need
+    /// only be in D₂ = {a + b even} unless the loop ends at a branch point turning by a half turn: the
+    /// monodromy x ↦ Rx + t around a ±1/4 branch point fixes (I − R)⁻¹t = ½(a − b, a + b),
+    /// which is in Z² exactly when t ∈ D₂ (and R preserves D₂); only a half turn R = −I (±1/2
+    /// for quads, every branch point of N = 2) needs t ∈ 2Z². D₂'s points are at most 1 from
+    /// any point, 2Z²'s √2.
+    gap_lattices: Vec<Lattice>,
     rots: Rots,
     cut: CutGraph,
     local: LocalSystem,
@@ -487,9 +494,25 @@ impl QuadCover {
             },
         );
         let (local, global) = (local?, global?);
+        let gap_lattices = match lattice {
+            Lattice::TwoZ2 => cut
+                .loop_end_holonomies(mesh)
+                .into_iter()
+                .map(|h| {
+                    // A half turn (holonomy N/2: ±1/2 for quads, any branch point for N = 2).
+                    if h.iter().any(|&h| 2 * h as usize == symmetry) {
+                        Lattice::TwoZ2
+                    } else {
+                        Lattice::D2
+                    }
+                })
+                .collect(),
+            _ => vec![lattice; cut.generators.len()],
+        };
         Ok(QuadCover {
             symmetry,
             lattice,
+            gap_lattices,
             rots,
             cut,
             local,
@@ -558,7 +581,10 @@ impl QuadCover {
             no_poles: true,
             ..self.opts.clone()
         };
-        let qc = QuadCover::new(&open, self.symmetry, &matchings, opts)?;
+        let mut qc = QuadCover::new(&open, self.symmetry, &matchings, opts)?;
+        // The opened stars' rims are boundary there, but the poles' positions depend on the
+        // gaps of loops ending on them: all on the branch points' lattice.
+        qc.gap_lattices = vec![qc.lattice; qc.gap_lattices.len()];
         let o = std::sync::Arc::new(Opened {
             poles: treat,
             untreated,
@@ -642,22 +668,32 @@ impl QuadCover {
         })
     }
 
-    /// Rounds the measured gaps with the configured rounding.
+    /// Rounds the measured gaps with the configured rounding, each to its own lattice
+    /// ([`QuadCover::gap_lattices`]).
     pub fn round_gaps(
         &self,
         mesh: &TriMesh,
         local: &LocalSolution,
     ) -> Result<Vec<[f64; 2]>, ParamError> {
+        self.round_gaps_on(mesh, local, &self.gap_lattices)
+    }
+
+    fn round_gaps_on(
+        &self,
+        mesh: &TriMesh,
+        local: &LocalSolution,
+        lattices: &[Lattice],
+    ) -> Result<Vec<[f64; 2]>, ParamError> {
         match self.opts.rounding {
             Rounding::Direct => Ok(local
                 .gaps
                 .iter()
-                .map(|&g| self.lattice.nearest(g))
+                .zip(lattices)
+                .map(|(&g, l)| l.nearest(g))
                 .collect()),
-            Rounding::Greedy => {
-                self.global
-                    .greedy_round(mesh, &self.rots, &local.gaps, self.lattice)
-            }
+            Rounding::Greedy => self
+                .global
+                .greedy_round(mesh, &self.rots, &local.gaps, lattices),
         }
     }
 
@@ -828,7 +864,9 @@ impl QuadCover {
             &local.gaps,
             curves,
         )?;
-        let plain = self.round_gaps(mesh, &local)?;
+        // Under curves every gap is on the one lattice the curves' equations are written in.
+        let plain =
+            self.round_gaps_on(mesh, &local, &vec![self.lattice; self.gap_lattices.len()])?;
         // Side by side: the rounding, and the constrained step's factorization, which depends
         // only on which components the curves fix, not on the rounded values (it serves the
         // re-rounding below as well).
@@ -991,7 +1029,8 @@ impl QuadCover {
             .iter()
             .map(|a| (a.rot, a.lin.eval(&gaps)))
             .collect();
-        let seam_max_error = metrics::seam_error(mesh, &self.rots, &uv, &trans, self.lattice);
+        let seam_max_error =
+            metrics::seam_error(mesh, &self.rots, &uv, &trans, self.lattice.transitions());
         let q = metrics::quality(mesh, &uv);
         Parameterization {
             symmetry: self.symmetry,

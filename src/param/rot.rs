@@ -152,6 +152,9 @@ pub enum Lattice {
     Z2,
     /// 2Z² (`pure_quad`: singularities on Z²).
     TwoZ2,
+    /// The checkerboard lattice D₂ = {(a, b) ∈ Z² : a + b even}: enough for the gaps of loops
+    /// that end only at ±1/4 branch points or the boundary to put them on Z² (`pure_quad`).
+    D2,
     /// Eisenstein integers a(1,0) + b(1/2, √3/2) (hexagons, N = 6).
     G6,
 }
@@ -161,6 +164,22 @@ impl Lattice {
         match self {
             Lattice::Z2 => [p[0].round(), p[1].round()],
             Lattice::TwoZ2 => [2.0 * (p[0] / 2.0).round(), 2.0 * (p[1] / 2.0).round()],
+            Lattice::D2 => {
+                let r = [p[0].round(), p[1].round()];
+                if (r[0] + r[1]).rem_euclid(2.0) == 0.0 {
+                    return r;
+                }
+                // Odd: the nearest of the four neighbours one step along an axis.
+                [[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]
+                    .iter()
+                    .map(|d| [r[0] + d[0], r[1] + d[1]])
+                    .min_by(|a, b| {
+                        let da = (a[0] - p[0]).hypot(a[1] - p[1]);
+                        let db = (b[0] - p[0]).hypot(b[1] - p[1]);
+                        da.total_cmp(&db)
+                    })
+                    .unwrap_or(r)
+            }
             Lattice::G6 => {
                 let s3 = 3f64.sqrt();
                 let b = 2.0 * p[1] / s3;
@@ -186,6 +205,7 @@ impl Lattice {
         match self {
             Lattice::Z2 => vec![[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]],
             Lattice::TwoZ2 => vec![[2.0, 0.0], [-2.0, 0.0], [0.0, 2.0], [0.0, -2.0]],
+            Lattice::D2 => vec![[1.0, 1.0], [-1.0, -1.0], [1.0, -1.0], [-1.0, 1.0]],
             Lattice::G6 => (0..6)
                 .map(|k| {
                     let a = std::f64::consts::FRAC_PI_3 * k as f64;
@@ -194,8 +214,69 @@ impl Lattice {
                 .collect(),
         }
     }
+    /// The lattice every gap and transition lies in: Z² would be enough for the map to be
+    /// seamless; with 2Z² (`pure_quad`) the gaps are in D₂ or 2Z² (see `QuadCover`'s
+    /// `gap_lattices`), which is what puts the branch points on Z².
+    pub fn transitions(self) -> Lattice {
+        match self {
+            Lattice::TwoZ2 => Lattice::D2,
+            l => l,
+        }
+    }
     pub fn distance(self, p: [f64; 2]) -> f64 {
         let q = self.nearest(p);
         (q[0] - p[0]).hypot(q[1] - p[1])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Lattice;
+
+    /// D₂'s nearest point is in D₂, no farther than 1, and no farther than any D₂ point of a
+    /// neighbourhood (brute force); a ±1/4 monodromy's fixed point is on Z² for every
+    /// translation in D₂ and off it for every other one, which is why D₂ suffices there.
+    #[test]
+    fn checkerboard_rounding_and_quarter_turn_fixed_points() {
+        let mut state = 0x9e3779b97f4a7c15u64;
+        let mut rand = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 20.0 - 10.0
+        };
+        for _ in 0..2000 {
+            let p = [rand(), rand()];
+            let q = Lattice::D2.nearest(p);
+            assert_eq!((q[0] + q[1]).rem_euclid(2.0), 0.0, "{p:?} -> {q:?}");
+            let d = (q[0] - p[0]).hypot(q[1] - p[1]);
+            assert!(d <= 1.0 + 1e-12, "{p:?} -> {q:?}");
+            assert!((Lattice::D2.distance(p) - d).abs() < 1e-12);
+            for a in -12..=12 {
+                for b in -12..=12 {
+                    if (a + b) % 2 == 0 {
+                        let e = (a as f64 - p[0]).hypot(b as f64 - p[1]);
+                        assert!(d <= e + 1e-12, "{p:?}: {q:?} but ({a}, {b})");
+                    }
+                }
+            }
+            assert!(Lattice::TwoZ2.distance(p) <= 2f64.sqrt() + 1e-12);
+        }
+        // x ↦ Rx + t with R the quarter turn (x, y) ↦ (−y, x) fixes ½(t₀ − t₁, t₀ + t₁).
+        for t0 in -5i64..=5 {
+            for t1 in -5i64..=5 {
+                let fixed = [(t0 - t1) as f64 / 2.0, (t0 + t1) as f64 / 2.0];
+                let on_z2 = fixed.iter().all(|x| x.fract() == 0.0);
+                let t = [t0 as f64, t1 as f64];
+                assert_eq!(on_z2, Lattice::D2.distance(t) == 0.0, "t = {t:?}");
+                // Fixed indeed: R·fixed + t = fixed.
+                assert_eq!([-fixed[1] + t[0], fixed[0] + t[1]], fixed);
+            }
+        }
+        for l in [Lattice::Z2, Lattice::TwoZ2, Lattice::D2, Lattice::G6] {
+            for s in l.steps() {
+                assert!(l.distance(s) < 1e-12, "{l:?} step {s:?}");
+            }
+        }
     }
 }

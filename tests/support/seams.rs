@@ -69,7 +69,7 @@ pub fn contract_error_with_poles(mesh: &TriMesh, p: &quadcover::param::Parameter
                 let (pa, pb) = (rot(n, r, ia), rot(n, r, ib));
                 let ta = [ja[0] - pa[0], ja[1] - pa[1]];
                 let tb = [jb[0] - pb[0], jb[1] - pb[1]];
-                (ta[0] - tb[0]).hypot(ta[1] - tb[1]) + p.lattice.distance(ta)
+                (ta[0] - tb[0]).hypot(ta[1] - tb[1]) + p.lattice.transitions().distance(ta)
             })
             .fold(f64::INFINITY, f64::min);
         worst = worst.max(best);
