@@ -251,7 +251,17 @@ impl<'p, 'm> Grid<'p, 'm> {
                                 d,
                                 g: q + dv(d),
                             };
-                            local.push((angle_from(p.n, e1, dv(d)), s));
+                            // A direction the predicate takes into this face although it
+                            // lies a hair clockwise of e1 (a grid line along the face's edge,
+                            // decided by the symbolic perturbation) starts the face's sector,
+                            // not ends it: a positive face's sector spans less than 3π/2.
+                            let a = angle_from(p.n, e1, dv(d));
+                            let a = if a > 1.5 * std::f64::consts::PI {
+                                a - std::f64::consts::TAU
+                            } else {
+                                a
+                            };
+                            local.push((a, s));
                         }
                     }
                     local.sort_by(|a, b| a.0.total_cmp(&b.0));
