@@ -202,6 +202,11 @@ impl EditorApp {
             ui.selectable_value(&mut density, Density::Scale, "Grid size");
         });
         let grid = self.document.edit_base.as_ref().map(|b| b.grid_size());
+        let thin = self
+            .document
+            .edit_base
+            .as_ref()
+            .map(|b| (b.field().thin.faces, b.field().thin.max_multiplier));
         match density {
             Density::Auto => {
                 d.target_vertices = None;
@@ -235,6 +240,9 @@ impl EditorApp {
         if let Some(g) = grid {
             ui.label(format!("Grid size now: {g:.4}"));
         }
+        if let Some((faces, m)) = thin.filter(|t| t.0 > 0) {
+            ui.label(format!("Thin parts: {faces} faces up to {m:.2}× finer"));
+        }
         ui.add(
             egui::Slider::new(&mut d.tau, 0.0..=10.0)
                 .logarithmic(true)
@@ -247,13 +255,18 @@ impl EditorApp {
             egui::Checkbox::new(&mut d.pure_quad, "Pure quad (singularities on Z²)"),
         )
         .on_hover_text(
-            "Round gaps to 2Z² so that every singularity becomes one irregular vertex of the quad \
-             remesh (N = 4; more distortion than the thesis's ½Z²)",
+            "Round gaps to D₂ (2Z² at half-turn singularities) so that every singularity becomes \
+             one irregular vertex of the quad remesh (N = 4; more distortion than the thesis's ½Z²)",
         );
         ui.checkbox(&mut d.renormalize_field, "Renormalize field")
             .on_hover_text(
                 "Pull the relaxed field to unit length (Ginzburg–Landau steps): a smoother field \
                  and less distortion; splits umbilic poles into ±1/N; the field takes longer",
+            );
+        ui.checkbox(&mut d.refine_thin_parts, "Refine thin parts")
+            .on_hover_text(
+                "Make tubes, handles and small holes narrower than 5 grid cells around finer, so \
+                 that the grid goes around them with 5 cells and the remesh stays manifold",
             );
         ui.checkbox(&mut d.no_half_merges, "No half merges (refuse ±2/4)");
         ui.checkbox(&mut d.no_pole_merges, "No pole merges (refuse +N/N)")

@@ -96,6 +96,10 @@ pub struct SolveArgs {
     /// lower smoothing energy and distortion; splits umbilic poles; the field takes longer
     #[arg(long)]
     pub renormalize_field: bool,
+    /// Keep the grid size uniform on thin parts too (by default tubes, handles and small holes
+    /// narrower than 5 grid cells around are made finer, so that the remesh stays manifold)
+    #[arg(long)]
+    pub no_thin_refinement: bool,
     /// `relax` edits merge singularities closer than this many grid cells [default: 1].
     #[arg(long)]
     pub relax_merge_within: Option<f64>,
@@ -213,8 +217,17 @@ struct Report {
     /// quads of UV.obj), and those it could not treat.
     poles: Vec<PoleOut>,
     untreated_poles: Vec<usize>,
+    /// Faces the thin-part refinement made finer, and the largest multiplier (0 and 1 when
+    /// nothing is thin, it is off, or the field came from a file).
+    thin_parts: ThinOut,
     #[serde(skip_serializing_if = "Option::is_none")]
     remesh: Option<RemeshQuality>,
+}
+
+#[derive(Debug, Serialize)]
+struct ThinOut {
+    faces: usize,
+    max_multiplier: f64,
 }
 
 #[derive(Debug, Serialize)]
@@ -304,6 +317,9 @@ fn settings_from(args: &SolveArgs, base: Option<&Settings>) -> Result<Settings, 
     }
     if args.renormalize_field {
         s.renormalize_field = true;
+    }
+    if args.no_thin_refinement {
+        s.refine_thin_parts = false;
     }
     if args.no_untangle {
         s.no_untangle = true;
@@ -460,6 +476,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         }),
         (p, true) => p,
     };
+    let mut thin = field::thin::ThinParts::default();
     let field = match (&args.field, &project) {
         (_, Some(project)) => {
             bar.start("frame field and QuadCover's analyses, then the edits");
@@ -471,6 +488,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 settings.clone(),
                 &edit::never,
             )?;
+            thin = base.field().thin.clone();
             for (name, secs) in &base.field().timings {
                 if name.contains("curvature") {
                     timings.curvature += secs * 1e3;
@@ -561,6 +579,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             bar.start("frame field, then the QuadCover factorizations beside its last solve");
             let (fr, qc) = param::pipeline::field_then_quadcover(&mesh, &params, n, &opts)?;
             prepared = Some(qc);
+            thin = fr.thin.clone();
             for (name, secs) in &fr.timings {
                 if name.contains("curvature") {
                     timings.curvature += secs * 1e3;
@@ -576,6 +595,14 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             fr.field
         }
     };
+    if thin.faces > 0 {
+        bar.line(format!(
+            "  thin parts: {} faces made up to {:.2}x finer (at least {} cells around; --no-thin-refinement keeps the grid uniform)",
+            thin.faces,
+            thin.max_multiplier,
+            field::thin::MIN_CELLS_AROUND
+        ));
+    }
     bar.start("QuadCover: cut graph, local and global step");
     let p = match solved {
         Some(p) => p,
@@ -758,6 +785,10 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 .iter()
                 .map(|&v| repair.original_vertex[v] as usize)
                 .collect(),
+            thin_parts: ThinOut {
+                faces: thin.faces,
+                max_multiplier: thin.max_multiplier,
+            },
             remesh: remesh.clone(),
         };
         let json = serde_json::to_string_pretty(&report)?;

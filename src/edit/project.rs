@@ -53,6 +53,9 @@ pub struct Settings {
     pub no_untangle: bool,
     /// Renormalize the field's relaxed solve (`FieldParams::renormalize`).
     pub renormalize_field: bool,
+    /// Make thin parts finer so that the grid goes around them with enough cells
+    /// (`FieldParams::refine_thin`; default on).
+    pub refine_thin_parts: bool,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -81,6 +84,7 @@ impl Default for Settings {
             relax_merge_within: 1.0,
             no_untangle: false,
             renormalize_field: false,
+            refine_thin_parts: true,
         }
     }
 }
@@ -139,6 +143,7 @@ impl Settings {
             curvature_smoothing: self.curvature_smoothing,
             cancel_pairs_within: self.cancel_pairs_within,
             renormalize: self.renormalize_field,
+            refine_thin: self.refine_thin_parts,
             ..Default::default()
         };
         match (self.scale, self.target_vertices) {

@@ -25,6 +25,7 @@ pub mod density;
 pub mod index;
 pub mod io;
 pub mod smoothing;
+pub mod thin;
 pub mod transport;
 
 use std::f64::consts::TAU;
@@ -199,6 +200,12 @@ pub struct FieldParams {
     /// it splits the curvature lines' umbilic poles (thesis sec. 4.3) and costs the field more.
     #[serde(default)]
     pub renormalize: bool,
+    /// Make thin parts (tubes, handles, beams, small holes narrower than
+    /// [`thin::MIN_CELLS_AROUND`] grid cells around) finer, so that the grid goes around them
+    /// with that many cells ([`thin::thin_parts`]); the rest keeps the grid size the density
+    /// asks for, so the vertex count grows by what the thin parts add.
+    #[serde(default = "refine_thin_default")]
+    pub refine_thin: bool,
     /// Keep the factored fixed-matching system in [`FieldResult::system`] (the edit model
     /// re-solves with it; it costs the factor's memory, so only asked for there).
     #[serde(skip)]
@@ -214,6 +221,10 @@ pub struct FieldParams {
 /// diagonal of about 3: the field there stays within a few hundredths of a radian of the curve.
 pub const CURVE_WEIGHT: f64 = 100.0;
 
+fn refine_thin_default() -> bool {
+    true
+}
+
 impl Default for FieldParams {
     fn default() -> FieldParams {
         FieldParams {
@@ -228,6 +239,7 @@ impl Default for FieldParams {
             curvature_smoothing: 5,
             cancel_pairs_within: 1.0,
             renormalize: false,
+            refine_thin: true,
             keep_system: false,
             aligned: None,
         }
@@ -249,6 +261,9 @@ pub struct FieldResult {
     pub grid_size: f64,
     /// Per-face density multiplier m_i (|U_i| = m_i / h).
     pub multipliers: Vec<f64>,
+    /// How many faces the thin parts made finer and by how much (their multipliers are in
+    /// `multipliers`).
+    pub thin: thin::ThinParts,
     pub indices: IndexReport,
     /// E_smooth (eq. 3.5) of the result.
     pub e_smooth: f64,
@@ -376,8 +391,21 @@ fn field_with_analysis<T: Send>(
         }
     }
     lap("classification + reliability", &mut timings);
-    let multipliers = density::face_multipliers(mesh, &params.scale, &curvature)?;
+    let mut multipliers = density::face_multipliers(mesh, &params.scale, &curvature)?;
     let grid_size = density::grid_size(mesh, &params.density, params.symmetry, &multipliers)?;
+    let thin = if params.refine_thin {
+        let thin = thin::thin_parts(mesh, grid_size);
+        for (m, t) in multipliers.iter_mut().zip(&thin.multipliers) {
+            *m = m.max(*t);
+        }
+        thin::ThinParts {
+            multipliers: Vec::new(),
+            ..thin
+        }
+    } else {
+        thin::ThinParts::default()
+    };
+    lap("thin parts", &mut timings);
     let radius = params.cancel_pairs_within * grid_size;
     let cancel = |theta: &[f64], turns: &[i64]| {
         cancel::cancel_close_pairs(mesh, &tr, theta, turns, n, radius)
@@ -441,6 +469,7 @@ fn field_with_analysis<T: Send>(
         classes,
         grid_size,
         multipliers,
+        thin,
         indices,
         e_smooth: sm.e_smooth,
         e_align: sm.e_align,
