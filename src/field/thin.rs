@@ -6,18 +6,16 @@
 //! density multiplier m (`density`) makes those parts finer, so that at least
 //! [`MIN_CELLS_AROUND`] cells go around them.
 //!
-//! How a part is found thin: from seed faces spread over the surface at spacing R, the faces
-//! within Euclidean distance r of the seed that are connected to it through such faces are
-//! grown for a decreasing ladder of radii r ≤ R = [`MIN_CELLS_AROUND`] h / π. The grown set
-//! is a disc unless the surface closes around within it: then its boundary has two or more
-//! loops (a tube's two rims; a hole's rim and the outer one), and the shortest of them
-//! measures how far it is around. A tube of radius ρ closes within a ball of radius 2ρ, so
-//! every tube of circumference πR = [`MIN_CELLS_AROUND`] h or less is found, and the smallest
-//! radius r* at which the set closes (bisected) measures it: πr* around. The faces within
-//! [`FULL`] R of the seed get m = [`MIN_CELLS_AROUND`] h / (πr*), falling off linearly to 1 at
-//! [`FALLOFF`] R. (The rims'
-//! lengths would overestimate it: at r = 2ρ a rim is a saddle-shaped loop 22 % longer than
-//! the tube is around.)
+//! How a part is found thin: from one seed face per cube of side R = [`MIN_CELLS_AROUND`] h / π,
+//! the faces within Euclidean distance r of the seed that are connected to it through such
+//! faces are grown. The grown set is a disc unless the surface closes around within it: then
+//! its boundary has two or more long loops (a tube's two rims; a hole's rim and the outer one).
+//! A tube of radius ρ closes within a ball of radius 2ρ, so every tube of circumference
+//! πR = [`MIN_CELLS_AROUND`] h or less closes at r = R, and the smallest radius r* at which it
+//! closes (down a ladder of radii, then bisected) measures it: πr* around. (The rims' lengths
+//! would overestimate it: at r = 2ρ a rim is a saddle-shaped loop 22 % longer than the tube is
+//! around.) The faces within [`FULL`] R of the seed get m = [`MIN_CELLS_AROUND`] h / (πr*),
+//! falling off linearly to 1 at [`FALLOFF`] R; where seeds overlap the larger m holds.
 
 use std::collections::{BinaryHeap, HashMap};
 
@@ -80,8 +78,11 @@ pub fn thin_parts(mesh: &TriMesh, h: f64) -> ThinParts {
     }
     let big_r = MIN_CELLS_AROUND * h / std::f64::consts::PI;
     let seeds = seeds(mesh, big_r);
+    // Per-job scratch of one float per face: jobs of at least 64 seeds keep the allocations
+    // few on large meshes.
     let found: Vec<(f64, Vec<(u32, f64)>)> = seeds
         .par_iter()
+        .with_min_len(64)
         .map_init(
             || vec![f64::INFINITY; nf],
             |scratch, &s| closing(mesh, s, big_r, h, scratch),
