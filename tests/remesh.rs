@@ -385,3 +385,46 @@ fn thin_tubes_get_enough_cells_around() {
         }
     }
 }
+
+/// `solve --remesh` says when the remesh is not a manifold copy of the input, and why: the
+/// torus whose tube is 2.5 cells around, with a uniform grid (`--no-thin-refinement`); with
+/// the default refinement it is manifold and nothing is said.
+#[test]
+fn cli_warns_of_a_remesh_that_is_not_manifold() {
+    let dir = tempfile::tempdir().unwrap();
+    let torus = quadcover::mesh::generate::torus(10.0, 0.6, 160, 12);
+    let path = dir.path().join("torus.obj");
+    quadcover::io::write_obj(
+        &path,
+        &quadcover::io::ObjOutput::new(torus.positions(), torus.faces()),
+    )
+    .unwrap();
+    let h = 2.0 * std::f64::consts::PI * 0.6 / 2.5;
+    let run = |extra: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_quadcover"))
+            .args(["solve", path.to_str().unwrap(), "--scale", &h.to_string()])
+            .args(extra)
+            .arg("--out")
+            .arg(dir.path().join("uv.obj"))
+            .arg("--remesh")
+            .arg(dir.path().join("remesh.obj"))
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    let uniform = run(&["--no-thin-refinement"]);
+    assert!(
+        uniform.contains("warning: the remesh is not a manifold copy")
+            && uniform.contains("drop --no-thin-refinement"),
+        "{uniform}"
+    );
+    let refined = run(&[]);
+    assert!(refined.contains("thin parts:"), "{refined}");
+    assert!(refined.contains("remesh: "), "{refined}");
+    assert!(!refined.contains("warning: the remesh"), "{refined}");
+}

@@ -697,6 +697,30 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 .with_polylines(&remesh.polylines);
             io::write::write_obj(path, &out)?;
             timings.remesh = bar.done("remesh", t);
+            if remesh.polylines.is_empty() {
+                bar.line(format!(
+                    "  remesh: {} vertices, {} faces, {} irregular vertices, {} patched places",
+                    quality.vertices,
+                    quality.faces,
+                    quality.irregular_vertices,
+                    quality.patched_places
+                ));
+                let (chi, want) = (remesh.euler_characteristic(), mesh.euler_characteristic());
+                if quality.non_manifold_edges > 0 || chi != want {
+                    bar.line(format!(
+                        "  warning: the remesh is not a manifold copy of the input ({} non-manifold \
+                         edges, Euler characteristic {chi} instead of {want}): parts of the surface \
+                         are too thin for the grid to go around; raise the density \
+                         (--target-vertices, --scale){}",
+                        quality.non_manifold_edges,
+                        if settings.refine_thin_parts {
+                            ""
+                        } else {
+                            " or drop --no-thin-refinement"
+                        }
+                    ));
+                }
+            }
             Some(quality)
         }
         None => None,
