@@ -283,20 +283,6 @@ fn extraction_can_be_cancelled() {
     }
 }
 
-/// Undirected edges in more than two faces, and directed edges in more than one.
-fn non_manifold_edges(r: &Remesh) -> usize {
-    let mut undirected: std::collections::HashMap<(u32, u32), usize> = Default::default();
-    let mut directed: std::collections::HashMap<(u32, u32), usize> = Default::default();
-    for f in &r.faces {
-        for k in 0..f.len() {
-            let (a, b) = (f[k], f[(k + 1) % f.len()]);
-            *undirected.entry((a.min(b), a.max(b))).or_default() += 1;
-            *directed.entry((a, b)).or_default() += 1;
-        }
-    }
-    undirected.values().filter(|&&c| c > 2).count() + directed.values().filter(|&&c| c > 1).count()
-}
-
 /// Thin parts get enough cells around (`field::thin`). A torus whose tube is about 2.5 grid
 /// cells around, and the cerebral vessels at 1500 vertices (the coarse density of the
 /// flip-free checks; vessels 2–3 cells around): with a uniform grid the period around the
@@ -342,7 +328,7 @@ fn thin_tubes_get_enough_cells_around() {
     for (what, base, mesh) in &cases {
         let solved = base.solve(base.initial(), &never).unwrap();
         let r = extract(mesh, &solved.param.uv, 4, &ExtractOptions::default()).unwrap();
-        let bad = non_manifold_edges(&r);
+        let bad = quadcover::extract::quality(&r, mesh).non_manifold_edges;
         let thin = &base.field().thin;
         println!(
             "{what}: {} vertices, {} faces, {bad} non-manifold edges, thin faces {} (x{:.2})",

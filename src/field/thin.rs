@@ -23,6 +23,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::mesh::TriMesh;
+use crate::mesh::heap::Nearest;
 
 /// Cells a thin part should have around it.
 pub const MIN_CELLS_AROUND: f64 = 5.0;
@@ -124,25 +125,6 @@ fn seeds(mesh: &TriMesh, s: f64) -> Vec<usize> {
     seeds
 }
 
-/// Max-heap entry ordered by the smaller distance first.
-struct Item(f64, u32);
-impl PartialEq for Item {
-    fn eq(&self, o: &Item) -> bool {
-        self.0 == o.0 && self.1 == o.1
-    }
-}
-impl Eq for Item {}
-impl PartialOrd for Item {
-    fn partial_cmp(&self, o: &Item) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl Ord for Item {
-    fn cmp(&self, o: &Item) -> std::cmp::Ordering {
-        o.0.total_cmp(&self.0).then(o.1.cmp(&self.1))
-    }
-}
-
 /// Whether the surface closes around within R of `seed`'s centroid: the multiplier it needs
 /// (above 1) and the faces within [`FALLOFF`] R with their reach (the smallest radius at which
 /// each joins the seed's set). `reach` is per-face scratch, all infinite on entry and exit.
@@ -163,11 +145,13 @@ fn closing(
     // Reach of a face: the smallest r at which a chain of faces within r joins it to the seed.
     // Grown in order of reach, first to R (most seeds end there), then on for the falloff.
     let mut heap = BinaryHeap::new();
-    heap.push(Item(far(seed), seed as u32));
+    heap.push(Nearest(far(seed), seed as u32));
     let mut order: Vec<(u32, f64)> = Vec::new();
     let mut grow = |limit: f64, reach: &mut [f64], order: &mut Vec<(u32, f64)>| {
         while heap.peek().is_some_and(|top| top.0 <= limit) {
-            let Some(Item(d, f)) = heap.pop() else { break };
+            let Some(Nearest(d, f)) = heap.pop() else {
+                break;
+            };
             if reach[f as usize].is_finite() {
                 continue;
             }
@@ -177,7 +161,7 @@ fn closing(
                 if let Some(t) = mesh.twin(3 * f as usize + k) {
                     let g = mesh.face_of(t);
                     if !reach[g].is_finite() {
-                        heap.push(Item(far(g).max(d), g as u32));
+                        heap.push(Nearest(far(g).max(d), g as u32));
                     }
                 }
             }

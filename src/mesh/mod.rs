@@ -9,6 +9,7 @@ mod build;
 mod error;
 pub mod generate;
 mod geometry;
+pub(crate) mod heap;
 pub mod isotropic;
 pub mod soup;
 mod topology;

@@ -14,6 +14,7 @@ use std::collections::{BinaryHeap, VecDeque};
 use std::sync::Arc;
 
 use crate::mesh::TriMesh;
+use crate::mesh::heap::Nearest;
 
 use super::rot::{Aff, Lin, Rots};
 
@@ -52,20 +53,6 @@ pub(crate) fn crossing(mesh: &TriMesh, matching: &[u8], n: usize, e: usize, from
         r
     } else {
         (n as i64 - r) % n as i64
-    }
-}
-
-#[derive(PartialEq)]
-struct Item(f64, u32);
-impl Eq for Item {}
-impl PartialOrd for Item {
-    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl Ord for Item {
-    fn cmp(&self, o: &Self) -> Ordering {
-        o.0.total_cmp(&self.0).then(o.1.cmp(&self.1))
     }
 }
 
@@ -220,12 +207,12 @@ fn tree_edges(nedges: usize, parent_edge: &[u32]) -> Vec<bool> {
 /// with the parents and roots that go with it; `touched` (if any) marks every vertex it changed.
 fn grow(
     graph: &MeshGraph,
-    heap: &mut BinaryHeap<Item>,
+    heap: &mut BinaryHeap<Nearest>,
     forest: (&mut [f64], &mut [u32], &mut [u32]),
     mut touched: Option<&mut Touched>,
 ) {
     let (dist, parent_edge, root) = forest;
-    while let Some(Item(d, v)) = heap.pop() {
+    while let Some(Nearest(d, v)) = heap.pop() {
         let v = v as usize;
         if d > dist[v] {
             continue;
@@ -240,7 +227,7 @@ fn grow(
                 if let Some(t) = touched.as_mut() {
                     t.mark(w);
                 }
-                heap.push(Item(nd, w as u32));
+                heap.push(Nearest(nd, w as u32));
             }
         }
     }
@@ -326,7 +313,7 @@ impl CutGraph {
             if mesh.is_boundary_vertex(v) || singular[v] {
                 dist[v] = 0.0;
                 root[v] = v as u32;
-                heap.push(Item(0.0, v as u32));
+                heap.push(Nearest(0.0, v as u32));
                 based[graph.vcomp[v] as usize] = false;
             }
         }
@@ -337,7 +324,7 @@ impl CutGraph {
                 has_root[c] = true;
                 dist[v] = 0.0;
                 root[v] = v as u32;
-                heap.push(Item(0.0, v as u32));
+                heap.push(Nearest(0.0, v as u32));
             }
         }
         let mut parent_edge = vec![NONE; nv];
@@ -436,7 +423,7 @@ impl CutGraph {
                 let w = w as usize;
                 if !touched.on[w] && !source[w] {
                     source[w] = true;
-                    heap.push(Item(dist[w], w as u32));
+                    heap.push(Nearest(dist[w], w as u32));
                 }
             }
         }
@@ -447,7 +434,7 @@ impl CutGraph {
             parent_edge[q] = NONE;
             root[q] = q as u32;
             touched.mark(q);
-            heap.push(Item(0.0, q as u32));
+            heap.push(Nearest(0.0, q as u32));
         }
         grow(
             &graph,
