@@ -200,6 +200,12 @@ fn quality_contents(ui: &mut egui::Ui, r: &RemeshView) {
     if q.non_manifold_edges > 0 {
         rows.push(format!("Non-manifold edges: {}", q.non_manifold_edges));
     }
+    if q.non_manifold_vertices > 0 {
+        rows.push(format!(
+            "Non-manifold vertices: {}",
+            q.non_manifold_vertices
+        ));
+    }
     for row in rows {
         ui.label(row);
     }

@@ -706,13 +706,22 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                     quality.patched_places
                 ));
                 let (chi, want) = (remesh.euler_characteristic(), mesh.euler_characteristic());
-                if quality.non_manifold_edges > 0 || chi != want {
+                if quality.non_manifold_edges > 0
+                    || quality.non_manifold_vertices > 0
+                    || chi != want
+                {
                     bar.line(format!(
                         "  warning: the remesh is not a manifold copy of the input ({} non-manifold \
-                         edges, Euler characteristic {chi} instead of {want}): parts of the surface \
-                         are too thin for the grid to go around; raise the density \
-                         (--target-vertices, --scale){}",
+                         edges, {} non-manifold vertices, Euler characteristic {chi} instead of \
+                         {want}): {}; raise the density (--target-vertices, --scale){}",
                         quality.non_manifold_edges,
+                        quality.non_manifold_vertices,
+                        if quality.patched_places > 0 {
+                            "parts of the surface are too thin for the grid to go around, or \
+                             extraction patched holes where the map folds or is mis-wound"
+                        } else {
+                            "parts of the surface are too thin for the grid to go around"
+                        },
                         if settings.refine_thin_parts {
                             ""
                         } else {

@@ -20,6 +20,7 @@
 mod ears;
 mod fill;
 mod lattice;
+mod pinch;
 mod poles;
 mod purify;
 mod snap;
@@ -256,6 +257,9 @@ pub fn extract_until(
             out.purified.collapsed_edges += ears::collapse_short_boundary_edges(&mut out);
             out.purified.cut_ears += ears::cut_flat_ears(&mut out);
         }
+    }
+    if symmetry != 2 {
+        out.purified.split_vertices = pinch::split_pinched_vertices(&mut out);
     }
     if symmetry == 4 && opts.split_to_quads {
         out = split_to_quads(&out);

@@ -40,6 +40,8 @@ pub struct PurifyStats {
     pub rotated_edges: usize,
     /// Flat boundary ears cut off (`ears.rs`; N = 6).
     pub cut_ears: usize,
+    /// Copies made of pinched vertices, one per fan after the first (`pinch.rs`; pure or not).
+    pub split_vertices: usize,
 }
 
 /// Makes every face a quad (`sides = 4`) or a triangle (`sides = 3`).

@@ -42,6 +42,8 @@ pub struct RemeshQuality {
     pub patched_places: usize,
     /// Directed edges used twice or undirected edges in more than two faces.
     pub non_manifold_edges: usize,
+    /// Vertices whose faces form more than one fan (two boundary loops touching at a point).
+    pub non_manifold_vertices: usize,
     /// What made the output pure (faces extraction left impure, snaps, collapses, midpoints,
     /// chords).
     pub purified: super::PurifyStats,
@@ -82,7 +84,11 @@ impl std::fmt::Display for RemeshQuality {
         if self.polylines > 0 {
             writeln!(f, "polylines       {}", self.polylines)?;
         }
-        writeln!(f, "non-manifold    {}", self.non_manifold_edges)?;
+        writeln!(
+            f,
+            "non-manifold    {} edges, {} vertices",
+            self.non_manifold_edges, self.non_manifold_vertices
+        )?;
         write!(f, "patched places  {}", self.patched_places)
     }
 }
@@ -126,6 +132,7 @@ pub fn quality(remesh: &Remesh, input: &TriMesh) -> RemeshQuality {
     }
     q.non_manifold_edges = directed.values().filter(|&&c| c > 1).count()
         + undirected.values().filter(|&&c| c > 2).count();
+    q.non_manifold_vertices = super::pinch::pinched_vertices(remesh);
     let mut boundary = vec![false; p.len()];
     for (&(a, b), &c) in &undirected {
         if c == 1 {

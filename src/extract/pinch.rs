@@ -1,0 +1,183 @@
+//! Pinched vertices: a remesh vertex whose faces form more than one fan (two boundary loops,
+//! or two sides of one loop, meeting at a single grid point; measured on the bunny with its
+//! boundary aligned, where the sides of a narrow hole round onto one lattice point). Such a
+//! vertex is not a manifold vertex even when every edge is, and it lowers the Euler
+//! characteristic by one per extra fan. Each extra fan gets a copy of the vertex (same
+//! position and origin): the remesh stays a manifold with the input's topology, and the copies
+//! are boundary vertices that relaxation moves along their own pieces of boundary.
+
+use std::collections::HashMap;
+
+use super::Remesh;
+
+/// The corners of one fan: (face, position in the face).
+type Fan = Vec<(usize, usize)>;
+
+/// Per vertex: the fans its faces form (each a list of (face, corner)), one entry per vertex
+/// with more than one fan. Faces are joined into a fan when they share an edge at the vertex.
+fn fans(remesh: &Remesh) -> Vec<(u32, Vec<Fan>)> {
+    let mut corners: HashMap<u32, Vec<(usize, usize)>> = HashMap::new();
+    for (fi, f) in remesh.faces.iter().enumerate() {
+        for k in 0..f.len() {
+            corners.entry(f[k]).or_default().push((fi, k));
+        }
+    }
+    let mut out = Vec::new();
+    let mut vertices: Vec<u32> = corners.keys().copied().collect();
+    vertices.sort_unstable();
+    for v in vertices {
+        let list = &corners[&v];
+        let mut parent: Vec<usize> = (0..list.len()).collect();
+        fn find(p: &mut [usize], mut x: usize) -> usize {
+            while p[x] != x {
+                p[x] = p[p[x]];
+                x = p[x];
+            }
+            x
+        }
+        // Corners sharing a neighbour of v (the other end of an edge at v) are in one fan.
+        let mut by_neighbour: HashMap<u32, usize> = HashMap::new();
+        for (i, &(fi, k)) in list.iter().enumerate() {
+            let f = &remesh.faces[fi];
+            let n = f.len();
+            for w in [f[(k + n - 1) % n], f[(k + 1) % n]] {
+                match by_neighbour.get(&w) {
+                    Some(&j) => {
+                        let (a, b) = (find(&mut parent, i), find(&mut parent, j));
+                        parent[a] = b;
+                    }
+                    None => {
+                        by_neighbour.insert(w, i);
+                    }
+                }
+            }
+        }
+        let mut groups: Vec<Fan> = Vec::new();
+        let mut index: HashMap<usize, usize> = HashMap::new();
+        for (i, &c) in list.iter().enumerate() {
+            let r = find(&mut parent, i);
+            let g = *index.entry(r).or_insert_with(|| {
+                groups.push(Vec::new());
+                groups.len() - 1
+            });
+            groups[g].push(c);
+        }
+        if groups.len() > 1 {
+            out.push((v, groups));
+        }
+    }
+    out
+}
+
+/// Vertices whose faces form more than one fan.
+pub fn pinched_vertices(remesh: &Remesh) -> usize {
+    fans(remesh).len()
+}
+
+/// Gives every fan after the first of a pinched vertex its own copy of the vertex; returns the
+/// number of copies made.
+pub fn split_pinched_vertices(remesh: &mut Remesh) -> usize {
+    let pinched = fans(remesh);
+    let mut made = 0;
+    for (v, groups) in pinched {
+        for group in groups.into_iter().skip(1) {
+            let copy = remesh.positions.len() as u32;
+            remesh.positions.push(remesh.positions[v as usize]);
+            if let Some(&o) = remesh.origins.get(v as usize) {
+                remesh.origins.resize(copy as usize, super::Origin::Unknown);
+                remesh.origins.push(o);
+            }
+            for (fi, k) in group {
+                remesh.faces[fi][k] = copy;
+            }
+            made += 1;
+        }
+    }
+    made
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::extract::Origin;
+    use glam::DVec3;
+
+    /// Two quads touching at one corner (a bow tie), and a quad strip beside them.
+    fn bow_tie() -> Remesh {
+        let p = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+        Remesh {
+            positions: vec![
+                p(0.0, 0.0),
+                p(1.0, 0.0),
+                p(1.0, 1.0),
+                p(0.0, 1.0),
+                p(2.0, 1.0),
+                p(2.0, 2.0),
+                p(1.0, 2.0),
+                p(3.0, 1.0),
+                p(3.0, 2.0),
+            ],
+            origins: (0..9).map(Origin::Vertex).collect(),
+            faces: vec![vec![0, 1, 2, 3], vec![2, 4, 5, 6], vec![4, 7, 8, 5]],
+            ..Default::default()
+        }
+    }
+
+    fn euler(r: &Remesh) -> i64 {
+        let mut edges = std::collections::BTreeSet::new();
+        for f in &r.faces {
+            for k in 0..f.len() {
+                let (a, b) = (f[k], f[(k + 1) % f.len()]);
+                edges.insert((a.min(b), a.max(b)));
+            }
+        }
+        let used: std::collections::BTreeSet<u32> = r.faces.iter().flatten().copied().collect();
+        used.len() as i64 - edges.len() as i64 + r.faces.len() as i64
+    }
+
+    #[test]
+    fn a_bow_tie_vertex_is_split_into_one_per_fan() {
+        let mut r = bow_tie();
+        // Two discs glued at a point: χ = 1 instead of 2.
+        assert_eq!(euler(&r), 1);
+        assert_eq!(pinched_vertices(&r), 1);
+        assert_eq!(split_pinched_vertices(&mut r), 1);
+        assert_eq!(pinched_vertices(&r), 0);
+        assert_eq!(euler(&r), 2);
+        assert_eq!(r.positions.len(), 10);
+        assert_eq!(r.positions[9], r.positions[2]);
+        assert_eq!(r.origins[9], Origin::Vertex(2));
+        // The first fan keeps the vertex, the second takes the copy; the faces keep their
+        // orientation and the strip beside them its shared edge.
+        assert_eq!(r.faces[0], vec![0, 1, 2, 3]);
+        assert_eq!(r.faces[1], vec![9, 4, 5, 6]);
+        assert_eq!(r.faces[2], vec![4, 7, 8, 5]);
+        // Nothing to split a second time, and a manifold mesh is left alone.
+        assert_eq!(split_pinched_vertices(&mut r), 0);
+    }
+
+    #[test]
+    fn a_closed_fan_and_a_boundary_fan_are_one_fan_each() {
+        // A vertex inside four quads (one closed fan) and a boundary vertex with two.
+        let p = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+        let mut positions = Vec::new();
+        for j in 0..3 {
+            for i in 0..3 {
+                positions.push(p(i as f64, j as f64));
+            }
+        }
+        let id = |i: u32, j: u32| j * 3 + i;
+        let faces = (0..2)
+            .flat_map(|j| {
+                (0..2).map(move |i| vec![id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)])
+            })
+            .collect();
+        let mut r = Remesh {
+            positions,
+            faces,
+            ..Default::default()
+        };
+        assert_eq!(pinched_vertices(&r), 0);
+        assert_eq!(split_pinched_vertices(&mut r), 0);
+    }
+}
