@@ -3,7 +3,9 @@
 //! every edge on γ by k; moved onto a singularity of index −k/N, both vanish). Rounding the
 //! matchings all at once (sec. 3.2) leaves such pairs a grid cell or less apart on scanned
 //! meshes; each costs the parameterization a fold-prone spot and the remesh two irregular
-//! vertices, while the field barely changes when they go.
+//! vertices, while the field barely changes when they go. Opposite signs of unequal index
+//! (−2/N beside +1/N) cancel as far as they can: the smaller moves into the larger, which
+//! keeps the sum, so a −2/N between two +1/N goes in two rounds.
 //!
 //! The indices here are those of the unreduced turns ([`turn_index_k_at`]): the index the
 //! fixed-matching solve makes of them. So a pair of integral index (±N/N, holonomy 0: +2/2
@@ -61,18 +63,20 @@ pub(crate) fn cancel_close_pairs(
     let index_at =
         |r: &[i64], v: usize| turn_index_k_at(mesh, tr, mesh.angle_defect(v), v, n, |e| r[e]);
     for _ in 0..ROUNDS {
-        let pairs = close_pairs(mesh, &singular, radius);
+        let pairs = close_pairs(mesh, &singular, radius, n as i32);
         let mut changed = false;
-        for (a, b, k) in pairs {
+        for (a, b, ka, kb) in pairs {
             let Some(path) = search.shortest_interior_path(mesh, a, b, 3.0 * radius) else {
                 continue;
             };
-            // The sign that makes the pair vanish (the other one would double it).
+            // The sign that moves b onto a (the other one would double b's index where it
+            // is); a keeps the sum of the two.
+            let k = kb;
             let Some(s) = [1, -1].into_iter().find(|&s| {
                 apply(mesh, &mut r, &path, k, s);
-                let vanishes = index_at(&r, a) == Some(0) && index_at(&r, b) == Some(0);
+                let moved = index_at(&r, a) == Some(ka + kb) && index_at(&r, b) == Some(0);
                 apply(mesh, &mut r, &path, k, -s);
-                vanishes
+                moved
             }) else {
                 continue;
             };
@@ -97,12 +101,17 @@ pub(crate) fn cancel_close_pairs(
     (singular.len() < before).then_some((r, released))
 }
 
-/// Disjoint pairs (a, b, k_a) with k_a + k_b = 0 and |p_a − p_b| < radius, nearest first.
+/// Disjoint pairs (a, b, k_a, k_b) of opposite signs with |p_a − p_b| < radius, nearest
+/// first, b to be moved onto a: k_a + k_b = 0 (the pair vanishes), or |k_b| < |k_a| < N (b
+/// vanishes into a, whose index shrinks: a −2/6 between two +1/6 one ring apart, as the field
+/// of max-planck rounds for N = 6, cancels in two rounds instead of folding the map between
+/// them). Integral indices (poles, ±N/N) only cancel with their exact opposite.
 fn close_pairs(
     mesh: &TriMesh,
     singular: &BTreeMap<usize, i32>,
     radius: f64,
-) -> Vec<(usize, usize, i32)> {
+    n: i32,
+) -> Vec<(usize, usize, i32, i32)> {
     let s: Vec<Singularity> = singular
         .iter()
         .map(|(&vertex, &k)| Singularity { vertex, k })
@@ -110,12 +119,20 @@ fn close_pairs(
     let mut candidates = Vec::new();
     for i in 0..s.len() {
         for j in i + 1..s.len() {
-            if s[i].k + s[j].k != 0 {
+            let (ki, kj) = (s[i].k, s[j].k);
+            let (onto, moved) = if ki + kj == 0 || kj.abs() < ki.abs() {
+                (i, j)
+            } else {
+                (j, i)
+            };
+            let exact = ki + kj == 0;
+            let partial = ki.signum() == -kj.signum() && ki.abs().max(kj.abs()) < n;
+            if !exact && !partial {
                 continue;
             }
             let d = (mesh.position(s[i].vertex) - mesh.position(s[j].vertex)).length();
             if d < radius {
-                candidates.push((d, i, j));
+                candidates.push((d, onto, moved));
             }
         }
     }
@@ -126,7 +143,7 @@ fn close_pairs(
         if !used[i] && !used[j] {
             used[i] = true;
             used[j] = true;
-            pairs.push((s[i].vertex, s[j].vertex, s[i].k));
+            pairs.push((s[i].vertex, s[j].vertex, s[i].k, s[j].k));
         }
     }
     pairs
@@ -363,6 +380,68 @@ mod tests {
         let mut expected = vec![(far[0], -1), (far[1], 1)];
         expected.sort_unstable();
         assert_eq!(left, expected);
+    }
+
+    /// A −2/N between two +1/N (made by moving two +1/N out of one vertex, as the field of
+    /// max-planck rounds for N = 6 one ring apart) cancels completely: one +1/N moves in and
+    /// leaves −1/N, which the other cancels. A pole (+N/N) with a −1/N beside it keeps both:
+    /// integral indices only cancel with their exact opposite.
+    #[test]
+    fn a_double_index_between_two_single_ones_cancels() {
+        let (nx, h) = (16, 1.0 / 16.0);
+        let (mesh, tr, theta) = flat_grid(nx, DVec3::new(1.0, 0.3, 0.0));
+        let id = |i: usize, j: usize| j * (nx + 1) + i;
+        let mut search = PathSearch::new(mesh.n_vertices());
+        for n in [4u32, 6] {
+            let base = nearest_turns(&tr, &theta, TAU / n as f64);
+            let p = id(8, 8);
+            let mut turns = base.clone();
+            for q in [id(9, 8), id(7, 9)] {
+                let path = search
+                    .shortest_interior_path(&mesh, p, q, f64::INFINITY)
+                    .unwrap();
+                apply(&mesh, &mut turns, &path, 1, 1);
+            }
+            let mut made: Vec<i32> = singular(&mesh, &tr, &turns, n)
+                .iter()
+                .map(|x| x.1)
+                .collect();
+            made.sort_unstable();
+            assert_eq!(made.len(), 3, "N = {n}: {made:?}");
+            assert_eq!(made.iter().sum::<i32>(), 0, "N = {n}: {made:?}");
+            assert_eq!(made.iter().map(|k| k.abs()).max(), Some(2), "N = {n}");
+            let (r, _) = cancel_close_pairs(&mesh, &tr, &theta, &turns, n, 3.0 * h)
+                .unwrap_or_else(|| panic!("N = {n}: nothing cancelled"));
+            assert_eq!(singular(&mesh, &tr, &r, n), [], "N = {n}");
+            // A pole beside a single index of the other sign (their partners far away):
+            // nothing to cancel.
+            let (q, far_pole, far_single) = (id(9, 8), id(2, 14), id(14, 2));
+            let with = |s: i64, search: &mut PathSearch| {
+                let mut turns = base.clone();
+                let path = search
+                    .shortest_interior_path(&mesh, p, far_pole, f64::INFINITY)
+                    .unwrap();
+                apply(&mesh, &mut turns, &path, n as i32, 1);
+                let path = search
+                    .shortest_interior_path(&mesh, q, far_single, f64::INFINITY)
+                    .unwrap();
+                apply(&mesh, &mut turns, &path, 1, s);
+                turns
+            };
+            let turns = [1, -1]
+                .into_iter()
+                .map(|s| with(s, &mut search))
+                .find(|t| {
+                    let k: BTreeMap<usize, i32> = singular(&mesh, &tr, t, n).into_iter().collect();
+                    k.get(&p).copied().unwrap_or(0) * k.get(&q).copied().unwrap_or(0) < 0
+                })
+                .expect("a pole and a single index of opposite signs");
+            assert_eq!(singular(&mesh, &tr, &turns, n).len(), 4, "N = {n}");
+            assert!(
+                cancel_close_pairs(&mesh, &tr, &theta, &turns, n, 3.0 * h).is_none(),
+                "N = {n}: a pole merged with a single index"
+            );
+        }
     }
 
     /// A rounded field with a half-vortex pair at two adjacent vertices (index ±1/2 at N = 2,
