@@ -374,7 +374,11 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 .into(),
         );
     }
-    let soup = io::read_mesh(&mesh_path)?;
+    // Every reader error but `Io` leaves the file name to the caller.
+    let soup = io::read_mesh(&mesh_path).map_err(|e| match e {
+        io::ReadError::Io { .. } => e.to_string(),
+        e => format!("{}: {e}", mesh_path.display()),
+    })?;
     let (mesh, repair) =
         TriMesh::from_soup(&soup).map_err(|e| format!("{}: {e}", mesh_path.display()))?;
     let needles = needle_area_share(&mesh);
