@@ -18,7 +18,7 @@ use glam::Vec3;
 use super::editor::{EditorApp, plain};
 use super::scene::{LineSegment, Overlay};
 use super::tools::{ToolContext, ToolKind, ToolOutput, next_overlay_revision};
-use crate::constraint::{Curve, CurveKind, CurveOrigin, feature_edges};
+use crate::constraint::{Curve, CurveKind, CurveOrigin};
 use crate::edit::Edit;
 use crate::mesh::TriMesh;
 
@@ -263,10 +263,19 @@ impl EditorApp {
         let Some(mesh) = self.document.mesh.as_ref() else {
             return;
         };
+        // What `detect_features` will keep: short sets of feature edges are dropped at the
+        // grid's scale.
+        let min_length = self.document.edit_base.as_ref().map_or(0.0, |b| {
+            crate::constraint::detect::MIN_FEATURE_CELLS * b.grid_size()
+        });
         let ui = &mut self.curves;
         let key = (self.document.generation(), ui.feature_angle);
         if ui.preview_key != Some(key) {
-            let edges = feature_edges(mesh, ui.feature_angle);
+            let edges = crate::constraint::detect::significant_feature_edges(
+                mesh,
+                ui.feature_angle,
+                min_length,
+            );
             ui.preview_edges = edges.len();
             ui.preview_overlay = Some(Arc::new(feature_overlay(mesh, &edges)));
             ui.preview_key = Some(key);

@@ -15,8 +15,12 @@
 //!   split point at all is one closed curve. A loop with exactly one split point is cut there
 //!   and at the vertex half-way around (by edge count), giving two open curves, since a curve
 //!   may repeat no vertex except through `closed`.
-//! * Nothing is dropped: every chosen edge lies on exactly one curve, so a single isolated
-//!   feature edge is a curve of two vertices.
+//! * Every chosen edge lies on exactly one curve. Features only: a connected set of feature
+//!   edges shorter in total than [`MIN_FEATURE_CELLS`] times `scale` is dropped first
+//!   ([`significant_feature_edges`]). On scans a dihedral threshold picks up single edges and
+//!   short chains of noise (max-planck at 60°: 52 sets, most of them one to three edges), and
+//!   a parameter line held along each of them folds the map around it. Boundary loops are never
+//!   dropped.
 //! * Output order is by the smallest edge id of each chain (the two halves of a loop with one
 //!   split point come together, in walking order). Each chain is oriented along the first
 //!   halfedge of its smallest edge, so boundary curves run with the surface on their left.
@@ -53,14 +57,68 @@ pub fn feature_edges(mesh: &TriMesh, angle_deg: f64) -> Vec<usize> {
         .collect()
 }
 
-/// Feature edges ([`feature_edges`] at `angle_deg`) chained into curves, split at junctions of
-/// three or more feature edges, at sharp turns ([`SHARP_TURN_DEG`]) and where a chain meets the
+/// A connected set of feature edges shorter than this many grid cells in total is no feature
+/// to align to (see the module documentation).
+pub const MIN_FEATURE_CELLS: f64 = 4.0;
+
+/// [`feature_edges`] without the connected sets of them (edges sharing a vertex) shorter in
+/// total than `min_length` (model units; 0 keeps every set). In edge id order.
+pub fn significant_feature_edges(mesh: &TriMesh, angle_deg: f64, min_length: f64) -> Vec<usize> {
+    let edges = feature_edges(mesh, angle_deg);
+    if min_length <= 0.0 {
+        return edges;
+    }
+    // Union-find over the vertices of the feature edges.
+    let mut parent: std::collections::HashMap<usize, usize> = std::collections::HashMap::new();
+    fn find(p: &mut std::collections::HashMap<usize, usize>, v: usize) -> usize {
+        let mut r = v;
+        while let Some(&q) = p.get(&r) {
+            if q == r {
+                break;
+            }
+            r = q;
+        }
+        let mut x = v;
+        while x != r {
+            let next = p[&x];
+            p.insert(x, r);
+            x = next;
+        }
+        r
+    }
+    for &e in &edges {
+        let [a, b] = mesh.edge_vertices(e);
+        parent.entry(a).or_insert(a);
+        parent.entry(b).or_insert(b);
+        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+        if ra != rb {
+            parent.insert(ra.max(rb), ra.min(rb));
+        }
+    }
+    let mut length: std::collections::HashMap<usize, f64> = std::collections::HashMap::new();
+    for &e in &edges {
+        let [a, b] = mesh.edge_vertices(e);
+        let r = find(&mut parent, a);
+        *length.entry(r).or_default() += (mesh.position(b) - mesh.position(a)).length();
+    }
+    edges
+        .into_iter()
+        .filter(|&e| {
+            let r = find(&mut parent, mesh.edge_vertices(e)[0]);
+            length[&r] >= min_length
+        })
+        .collect()
+}
+
+/// Feature edges ([`significant_feature_edges`] at `angle_deg`, sets shorter than
+/// [`MIN_FEATURE_CELLS`] `scale` dropped) chained into curves, split at junctions of three or
+/// more feature edges, at sharp turns ([`SHARP_TURN_DEG`]) and where a chain meets the
 /// boundary; see the module documentation for the rules.
-/// `scale` (model units; 0 for none) is the length over which a turn must also be sharp.
+/// `scale` (model units, the grid size; 0 for none) is the length over which a turn must also
+/// be sharp.
 pub fn detect_features(mesh: &TriMesh, angle_deg: f64, scale: f64) -> Vec<DetectedCurve> {
-    chain_edges(mesh, &feature_edges(mesh, angle_deg), scale, |v| {
-        mesh.is_boundary_vertex(v)
-    })
+    let edges = significant_feature_edges(mesh, angle_deg, MIN_FEATURE_CELLS * scale);
+    chain_edges(mesh, &edges, scale, |v| mesh.is_boundary_vertex(v))
 }
 
 /// Every boundary loop as one closed curve, or split into open curves at its sharp corners
@@ -272,6 +330,48 @@ mod tests {
             m = generate::subdivide(&m);
         }
         m
+    }
+
+    /// Sets of feature edges shorter than the minimum length go, whole; longer ones stay whole.
+    #[test]
+    fn short_feature_sets_are_dropped_whole() {
+        // The cube's twelve creases (one connected set, length 12) and a spike on the top face
+        // (a vertex raised far out of it: a small set of its own).
+        let mut m = cube(2);
+        let top = (0..m.n_vertices())
+            .find(|&v| (m.position(v) - DVec3::new(0.5, 0.5, 1.0)).length() < 1e-9)
+            .unwrap();
+        let mut p = m.positions().to_vec();
+        p[top].z += 0.5;
+        m = TriMesh::from_triangles(p, m.faces().to_vec()).unwrap();
+        let on_cube_edge = |v: usize| {
+            let q = m.position(v);
+            [q.x, q.y, q.z]
+                .iter()
+                .filter(|c| c.abs() < 1e-9 || (*c - 1.0).abs() < 1e-9)
+                .count()
+                >= 2
+        };
+        let on_crease = |e: usize| m.edge_vertices(e).iter().all(|&v| on_cube_edge(v));
+        let all = feature_edges(&m, 40.0);
+        let creases = all.iter().filter(|&&e| on_crease(e)).count();
+        assert_eq!(creases, 48, "12 creases of 4 edges");
+        let spike: f64 = all
+            .iter()
+            .filter(|&&e| !on_crease(e))
+            .map(|&e| {
+                let [a, b] = m.edge_vertices(e);
+                (m.position(a) - m.position(b)).length()
+            })
+            .sum();
+        assert!(spike > 0.5 && spike < 6.0, "the spike's features: {spike}");
+        assert_eq!(significant_feature_edges(&m, 40.0, 0.0), all);
+        let kept = significant_feature_edges(&m, 40.0, 6.0);
+        assert_eq!(kept.len(), 48);
+        assert!(kept.iter().all(|&e| on_crease(e)));
+        // Longer than the creases: nothing stays. And `detect_features` drops at 4 cells.
+        assert!(significant_feature_edges(&m, 40.0, 12.5).is_empty());
+        assert_eq!(detect_features(&m, 40.0, 6.0 / MIN_FEATURE_CELLS).len(), 12);
     }
 
     /// A capped cylinder: `generate::cylinder` with a fan at each end (two circular creases).
