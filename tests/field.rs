@@ -717,8 +717,9 @@ fn bench_bunny_and_subdivided() {
     }
 }
 
-/// Sec. 3.3: cancelling close opposite singularity pairs removes them in pairs, keeps the index
-/// theorem, and leaves no opposite pair closer than the radius.
+/// Sec. 3.3: cancelling close opposite singularity pairs removes them, keeps the index theorem,
+/// and leaves no pair of opposite signs closer than the radius. Exact opposites go in pairs; a
+/// −2/4 beside a +1/4 leaves a −1/4, so the count may drop by an odd number.
 #[test]
 fn close_opposite_singularities_are_cancelled_in_pairs() {
     let Some(mesh) = load("max-planck.obj") else {
@@ -740,7 +741,21 @@ fn close_opposite_singularities_are_cancelled_in_pairs() {
         cancelled.indices.singularities.len(),
     );
     println!("max-planck N=4: {a} singularities, {b} after cancelling close pairs");
-    assert!(b < a && (a - b) % 2 == 0, "{a} -> {b}");
+    assert!(b < a, "{a} -> {b}");
+    // Every singularity of index ±2/4 next to an opposite one within the radius merged: the
+    // count dropped by one per such merge and by two per exact pair.
+    let doubles = |r: &quadcover::field::FieldResult| {
+        r.indices
+            .singularities
+            .iter()
+            .filter(|s| s.k.abs() >= 2)
+            .count()
+    };
+    println!(
+        "±2/4 singularities: {} -> {}",
+        doubles(&plain),
+        doubles(&cancelled)
+    );
     assert_eq!(
         cancelled.indices.interior_sum_k,
         plain.indices.interior_sum_k
@@ -752,7 +767,10 @@ fn close_opposite_singularities_are_cancelled_in_pairs() {
     let s = &cancelled.indices.singularities;
     for i in 0..s.len() {
         for j in i + 1..s.len() {
-            if s[i].k + s[j].k == 0 {
+            // Opposite signs, and not a pole (±4/4) with a smaller index.
+            let (ki, kj) = (s[i].k, s[j].k);
+            let cancels = ki + kj == 0 || (ki * kj < 0 && ki.abs().max(kj.abs()) < 4);
+            if cancels {
                 let d = (mesh.position(s[i].vertex) - mesh.position(s[j].vertex)).length();
                 assert!(d >= cancelled.grid_size, "pair {i}, {j} left {d} apart");
             }
