@@ -295,5 +295,27 @@ fn solve_names_the_file_of_every_broken_mesh() {
         n += 1;
     }
     assert!(n >= 15, "the broken corpus has only {n} unrepairable files");
+    // A project whose mesh is missing: the message names the mesh and the project.
+    let project = out_dir.join("lost.qcproj.json");
+    std::fs::write(
+        &project,
+        r#"{ "format": "quadcover-project", "version": 1, "mesh": { "path": "nowhere.obj" },
+            "settings": {}, "edits": [] }"#,
+    )
+    .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_quadcover"))
+        .arg("solve")
+        .arg("--project")
+        .arg(&project)
+        .arg("--out")
+        .arg(out_dir.join("out.obj"))
+        .output()
+        .expect("run quadcover solve");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("nowhere.obj") && stderr.contains("lost.qcproj.json"),
+        "{stderr}"
+    );
     let _ = std::fs::remove_dir_all(&out_dir);
 }

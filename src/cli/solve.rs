@@ -375,8 +375,13 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         );
     }
     // Every reader error but `Io` leaves the file name to the caller.
+    // The mesh a project names: say which project named it.
+    let named_by = match (&args.mesh, &args.project) {
+        (None, Some(pp)) => format!(" (the mesh of {})", pp.display()),
+        _ => String::new(),
+    };
     let soup = io::read_mesh(&mesh_path).map_err(|e| match e {
-        io::ReadError::Io { .. } => e.to_string(),
+        io::ReadError::Io { .. } => format!("{e}{named_by}"),
         e => format!("{}: {e}", mesh_path.display()),
     })?;
     let (mesh, repair) =
