@@ -220,25 +220,37 @@ fn info_prints_statistics_for_every_shared_mesh() {
     }
 }
 
-#[test]
-fn info_exits_with_2_and_a_message_on_every_broken_file() {
+/// The files of the broken corpus (tests/data/broken), in name order, each with whether the
+/// loader repairs it (with a warning) instead of refusing it.
+fn broken_corpus() -> Vec<(String, PathBuf, bool)> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/broken");
     let repairable = [
         "inconsistent_orientation.obj",
         "duplicate_faces.obj",
         "unreferenced_vertices.obj",
     ];
-    let mut n = 0;
-    for entry in std::fs::read_dir(&dir).expect("broken corpus") {
-        let path = entry.unwrap().path();
-        let name = path.file_name().unwrap().to_string_lossy().to_string();
-        if name.ends_with(".md") {
-            continue;
-        }
-        let out = info(&path);
+    let mut files: Vec<(String, PathBuf, bool)> = std::fs::read_dir(&dir)
+        .expect("broken corpus")
+        .map(|entry| {
+            let path = entry.unwrap().path();
+            let name = path.file_name().unwrap().to_string_lossy().to_string();
+            let fixable = repairable.contains(&name.as_str());
+            (name, path, fixable)
+        })
+        .filter(|(name, _, _)| !name.ends_with(".md"))
+        .collect();
+    files.sort();
+    files
+}
+
+#[test]
+fn info_exits_with_2_and_a_message_on_every_broken_file() {
+    let files = broken_corpus();
+    for (name, path, repairable) in &files {
+        let out = info(path);
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(!stderr.contains("panicked"), "{name} panicked: {stderr}");
-        if repairable.contains(&name.as_str()) {
+        if *repairable {
             assert!(out.status.success(), "{name}: {stderr}");
             assert!(
                 String::from_utf8_lossy(&out.stdout).contains("warnings"),
@@ -251,42 +263,39 @@ fn info_exits_with_2_and_a_message_on_every_broken_file() {
                 "{name}: {stderr}"
             );
         }
-        n += 1;
     }
-    assert!(n >= 15, "the broken corpus has only {n} files");
+    assert!(
+        files.len() >= 15,
+        "the broken corpus has only {} files",
+        files.len()
+    );
 }
 
 /// `solve` on every broken file of the corpus that cannot be repaired: exit code 2 and a
 /// message that names the file (before, reader errors such as "line 1: vertex record has 2
-/// coordinates" came without it).
+/// coordinates" came without it). A project whose mesh is missing names both.
 #[test]
 fn solve_names_the_file_of_every_broken_mesh() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/broken");
-    let out_dir =
-        std::env::temp_dir().join(format!("quadcover-broken-solve-{}", std::process::id()));
-    std::fs::create_dir_all(&out_dir).unwrap();
-    let repairable = [
-        "inconsistent_orientation.obj",
-        "duplicate_faces.obj",
-        "unreferenced_vertices.obj",
-    ];
-    let mut n = 0;
-    for entry in std::fs::read_dir(&dir).expect("broken corpus") {
-        let path = entry.unwrap().path();
-        let name = path.file_name().unwrap().to_string_lossy().to_string();
-        if name.ends_with(".md") || repairable.contains(&name.as_str()) {
-            continue;
-        }
+    let dir = tempfile::tempdir().unwrap();
+    let solve = |input: &[&std::ffi::OsStr]| {
         let out = Command::new(env!("CARGO_BIN_EXE_quadcover"))
             .arg("solve")
-            .arg(&path)
+            .args(input)
             .arg("--out")
-            .arg(out_dir.join("out.obj"))
+            .arg(dir.path().join("out.obj"))
             .output()
             .expect("run quadcover solve");
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(!stderr.contains("panicked"), "{name} panicked: {stderr}");
-        assert_eq!(out.status.code(), Some(2), "{name}: {stderr}");
+        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(!stderr.contains("panicked"), "{input:?} panicked: {stderr}");
+        assert_eq!(out.status.code(), Some(2), "{input:?}: {stderr}");
+        stderr
+    };
+    let mut n = 0;
+    for (name, path, repairable) in broken_corpus() {
+        if repairable {
+            continue;
+        }
+        let stderr = solve(&[path.as_os_str()]);
         let last = stderr.lines().last().unwrap_or_default();
         assert!(
             last.starts_with("error: ") && last.contains(&name),
@@ -295,27 +304,16 @@ fn solve_names_the_file_of_every_broken_mesh() {
         n += 1;
     }
     assert!(n >= 15, "the broken corpus has only {n} unrepairable files");
-    // A project whose mesh is missing: the message names the mesh and the project.
-    let project = out_dir.join("lost.qcproj.json");
+    let project = dir.path().join("lost.qcproj.json");
     std::fs::write(
         &project,
         r#"{ "format": "quadcover-project", "version": 1, "mesh": { "path": "nowhere.obj" },
             "settings": {}, "edits": [] }"#,
     )
     .unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_quadcover"))
-        .arg("solve")
-        .arg("--project")
-        .arg(&project)
-        .arg("--out")
-        .arg(out_dir.join("out.obj"))
-        .output()
-        .expect("run quadcover solve");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    let stderr = solve(&["--project".as_ref(), project.as_os_str()]);
     assert!(
         stderr.contains("nowhere.obj") && stderr.contains("lost.qcproj.json"),
         "{stderr}"
     );
-    let _ = std::fs::remove_dir_all(&out_dir);
 }
