@@ -29,6 +29,7 @@
 //! Every curve passes [`check_path`](super::check_path).
 
 use crate::mesh::TriMesh;
+use crate::mesh::disjoint::Disjoint;
 
 /// A curve is split at a vertex where it turns by more than this (degrees): the angle between
 /// the direction of the edge arriving at the vertex and that of the edge leaving it, in 3-D.
@@ -68,45 +69,20 @@ pub fn significant_feature_edges(mesh: &TriMesh, angle_deg: f64, min_length: f64
     if min_length <= 0.0 {
         return edges;
     }
-    // Union-find over the vertices of the feature edges.
-    let mut parent: std::collections::HashMap<usize, usize> = std::collections::HashMap::new();
-    fn find(p: &mut std::collections::HashMap<usize, usize>, v: usize) -> usize {
-        let mut r = v;
-        while let Some(&q) = p.get(&r) {
-            if q == r {
-                break;
-            }
-            r = q;
-        }
-        let mut x = v;
-        while x != r {
-            let next = p[&x];
-            p.insert(x, r);
-            x = next;
-        }
-        r
-    }
+    // The connected sets (edges sharing a vertex), by the smallest vertex of each.
+    let mut sets = Disjoint::new(mesh.n_vertices());
     for &e in &edges {
         let [a, b] = mesh.edge_vertices(e);
-        parent.entry(a).or_insert(a);
-        parent.entry(b).or_insert(b);
-        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-        if ra != rb {
-            parent.insert(ra.max(rb), ra.min(rb));
-        }
+        sets.union(a, b);
     }
-    let mut length: std::collections::HashMap<usize, f64> = std::collections::HashMap::new();
+    let mut length = vec![0.0; mesh.n_vertices()];
     for &e in &edges {
         let [a, b] = mesh.edge_vertices(e);
-        let r = find(&mut parent, a);
-        *length.entry(r).or_default() += (mesh.position(b) - mesh.position(a)).length();
+        length[sets.find(a)] += (mesh.position(b) - mesh.position(a)).length();
     }
     edges
         .into_iter()
-        .filter(|&e| {
-            let r = find(&mut parent, mesh.edge_vertices(e)[0]);
-            length[&r] >= min_length
-        })
+        .filter(|&e| length[sets.find(mesh.edge_vertices(e)[0])] >= min_length)
         .collect()
 }
 

@@ -9,6 +9,7 @@
 use std::collections::HashMap;
 
 use super::Remesh;
+use crate::mesh::disjoint::Disjoint;
 
 /// The corners of one fan: (face, position in the face).
 type Fan = Vec<(usize, usize)>;
@@ -27,14 +28,7 @@ fn fans(remesh: &Remesh) -> Vec<(u32, Vec<Fan>)> {
     vertices.sort_unstable();
     for v in vertices {
         let list = &corners[&v];
-        let mut parent: Vec<usize> = (0..list.len()).collect();
-        fn find(p: &mut [usize], mut x: usize) -> usize {
-            while p[x] != x {
-                p[x] = p[p[x]];
-                x = p[x];
-            }
-            x
-        }
+        let mut fan = Disjoint::new(list.len());
         // Corners sharing a neighbour of v (the other end of an edge at v) are in one fan.
         let mut by_neighbour: HashMap<u32, usize> = HashMap::new();
         for (i, &(fi, k)) in list.iter().enumerate() {
@@ -42,10 +36,7 @@ fn fans(remesh: &Remesh) -> Vec<(u32, Vec<Fan>)> {
             let n = f.len();
             for w in [f[(k + n - 1) % n], f[(k + 1) % n]] {
                 match by_neighbour.get(&w) {
-                    Some(&j) => {
-                        let (a, b) = (find(&mut parent, i), find(&mut parent, j));
-                        parent[a] = b;
-                    }
+                    Some(&j) => fan.union(i, j),
                     None => {
                         by_neighbour.insert(w, i);
                     }
@@ -55,7 +46,7 @@ fn fans(remesh: &Remesh) -> Vec<(u32, Vec<Fan>)> {
         let mut groups: Vec<Fan> = Vec::new();
         let mut index: HashMap<usize, usize> = HashMap::new();
         for (i, &c) in list.iter().enumerate() {
-            let r = find(&mut parent, i);
+            let r = fan.find(i);
             let g = *index.entry(r).or_insert_with(|| {
                 groups.push(Vec::new());
                 groups.len() - 1

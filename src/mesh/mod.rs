@@ -6,6 +6,7 @@
 //! [`TriMesh::from_triangles`] (generated meshes); both validate and never panic on bad input.
 
 mod build;
+pub(crate) mod disjoint;
 mod error;
 pub mod generate;
 mod geometry;
