@@ -211,7 +211,8 @@ pub struct CurvesUi {
     curves_key: Option<(u64, BTreeMap<u32, Curve>, Vec<u32>)>,
     curves_overlay: Option<Arc<Overlay>>,
     /// (mesh generation, angle) of the feature preview, its edge count and overlay.
-    preview_key: Option<(u64, f64)>,
+    /// (document generation, feature angle, minimum set length) of the preview shown.
+    preview_key: Option<(u64, f64, f64)>,
     preview_edges: usize,
     preview_overlay: Option<Arc<Overlay>>,
 }
@@ -269,7 +270,7 @@ impl EditorApp {
             crate::constraint::detect::MIN_FEATURE_CELLS * b.grid_size()
         });
         let ui = &mut self.curves;
-        let key = (self.document.generation(), ui.feature_angle);
+        let key = (self.document.generation(), ui.feature_angle, min_length);
         if ui.preview_key != Some(key) {
             let edges = crate::constraint::detect::significant_feature_edges(
                 mesh,

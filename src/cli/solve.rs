@@ -374,8 +374,8 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 .into(),
         );
     }
-    // Every reader error but `Io` leaves the file name to the caller.
-    // The mesh a project names: say which project named it.
+    // Every reader error but `Io` leaves the file name to the caller; a mesh named by a
+    // project also names the project.
     let named_by = match (&args.mesh, &args.project) {
         (None, Some(pp)) => format!(" (the mesh of {})", pp.display()),
         _ => String::new(),
