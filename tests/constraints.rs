@@ -219,7 +219,9 @@ fn fandisk_features_lie_on_parameter_lines() {
     );
     // That corner's apex is a singularity: its cone angle is the wedge's 90° and 360° for
     // the rest.
-    let (_, apexes) = quadcover::constraint::acute_corners(mesh, state.curves.values(), 4);
+    let apexes =
+        quadcover::constraint::acute_corners(mesh, state.curves.values(), 4, base.grid_size())
+            .apexes;
     assert!(!apexes.is_empty(), "fandisk has an acute corner at 40°");
     for a in &apexes {
         assert!(singular.contains(a), "apex {a} is no singularity");
@@ -690,6 +692,126 @@ fn aligned_rims_give_caps_quarter_singularities_not_poles() {
         assert_eq!(remesh.patched_places, 0, "{what}");
         assert!(share > 0.99, "{what}: {share}");
     }
+}
+
+/// A triangle with corners of `alpha` and 90° (in degrees) on a base of 4, as a flat sheet
+/// (`height` 0) or the prism over it, remeshed isotropically to about `vertices` vertices with
+/// its edges kept (as `solve` would a CAD part's tessellation).
+fn triangle_part(alpha: f64, height: f64, vertices: usize) -> std::sync::Arc<TriMesh> {
+    use glam::DVec3;
+    use quadcover::mesh::isotropic::{IsotropicOptions, isotropic_remesh};
+    let corners = [
+        (0.0, 0.0),
+        (4.0, 0.0),
+        (4.0, 4.0 * alpha.to_radians().tan()),
+    ];
+    let layer = |z: f64| corners.iter().map(move |&(x, y)| DVec3::new(x, y, z));
+    let (positions, faces): (Vec<DVec3>, Vec<[u32; 3]>) = if height == 0.0 {
+        (layer(0.0).collect(), vec![[0, 1, 2]])
+    } else {
+        let mut faces = vec![[0, 2, 1], [3, 4, 5]];
+        for i in 0..3u32 {
+            let j = (i + 1) % 3;
+            faces.extend([[i, j, 3 + j], [i, 3 + j, 3 + i]]);
+        }
+        (layer(0.0).chain(layer(height)).collect(), faces)
+    };
+    let raw = TriMesh::from_triangles(positions, faces).unwrap();
+    let opts = IsotropicOptions::for_vertices(&raw, vertices, 35.0);
+    std::sync::Arc::new(isotropic_remesh(&raw, &opts).unwrap())
+}
+
+/// Corners of curves the smallest turn of the field would close: at 45° (N = 4) the
+/// smoothing's choice between a 0° and a 90° lattice corner was a coin toss, and a right
+/// isosceles triangle with its boundary aligned came out with both 45° corners at 0° (817 of
+/// about 6000 faces folded after the repair, 2026-12-03), the prism over it with features on
+/// 3048. Such corners are acute now (`constraint::acute_corners`, below 0.52 of 2π/N), and the
+/// +1/4 their lattice corners ask for in the prism's caps, which the design put on a curve
+/// beside the apex (where it turned that curve's line instead), is moved off the curves.
+#[test]
+fn corners_at_45_degrees_become_lattice_corners() {
+    let cases = [
+        (
+            "right isosceles triangle, boundary aligned",
+            0.0,
+            Edit::AlignBoundary { on: true },
+        ),
+        (
+            "prism over it, features at 40°",
+            1.5,
+            Edit::DetectFeatures { angle_deg: 40.0 },
+        ),
+    ];
+    for (what, height, edit) in cases {
+        let mesh = triangle_part(45.0, height, 3000);
+        let base = Base::for_mesh(mesh.clone(), Settings::default()).unwrap();
+        let (state, solved) = replay_solve(&base, &[edit]);
+        let p = &solved.param;
+        check_geometric(&base, &state, &solved);
+        let ks: Vec<f64> = p.singularities.iter().map(|s| s.index * 4.0).collect();
+        eprintln!(
+            "{what}: {} folds before the repair, {} after, singularities {ks:?}",
+            p.flipped_faces_before_repair, p.flipped_faces
+        );
+        assert_eq!(p.flipped_faces, 0, "{what}");
+        if height == 0.0 {
+            // Each of the sheet's corners a lattice corner of 90° (none of 0°, none of 180°
+            // along a side): by Gauss–Bonnet the indices inside sum to +1/4.
+            assert_eq!(ks.iter().sum::<f64>(), 1.0, "{what}: {ks:?}");
+        } else {
+            // Each of the prism's six corners is a +1/4: three lattice corners of 90°.
+            for corner in 0..6 {
+                let at = mesh
+                    .positions()
+                    .iter()
+                    .position(|q| {
+                        let z = if corner < 3 { 0.0 } else { height };
+                        let (x, y) = [(0.0, 0.0), (4.0, 0.0), (4.0, 4.0)][corner % 3];
+                        (*q - glam::DVec3::new(x, y, z)).length() < 1e-9
+                    })
+                    .expect("the remesh keeps the corners");
+                let k = p.singularities.iter().find(|s| s.vertex == at);
+                assert!(
+                    k.is_some_and(|s| (s.index - 0.25).abs() < 1e-9),
+                    "{what}: corner {corner} (vertex {at}) has index {:?}",
+                    k.map(|s| s.index)
+                );
+            }
+        }
+        let (remesh, _, _) = remesh_along_curves(&base, &state, &solved, what);
+        remesh_checks::assert_manifold(&remesh, what);
+        assert_eq!(
+            remesh.euler_characteristic(),
+            mesh.euler_characteristic(),
+            "{what}"
+        );
+    }
+}
+
+/// An acute corner on the boundary (a flat 30°–60°–90° triangle with its boundary aligned):
+/// the apex's fan is one face, a dead end of the dual graph, so holding it to the corner's
+/// turning frame turned no path around the apex, and the field took the smallest turn: the
+/// 30° corner at 0°, 3804 folded faces after the repair (2026-12-03). The faces within a cell
+/// (three rings at least) of a boundary apex are held now. What the smoothing then makes is a
+/// polar layout (the lines fan out from the apex, no singularity, a fourth lattice corner on
+/// the boundary near the apex): fold-free and seamless, its cells small near the apex; a
+/// singularity inside instead is not designed (`docs/untangling.md`).
+#[test]
+fn an_acute_boundary_corner_does_not_collapse() {
+    let mesh = triangle_part(30.0, 0.0, 3000);
+    let base = Base::for_mesh(mesh.clone(), Settings::default()).unwrap();
+    let (state, solved) = replay_solve(&base, &[Edit::AlignBoundary { on: true }]);
+    let p = &solved.param;
+    check_geometric(&base, &state, &solved);
+    eprintln!(
+        "30°-60°-90° triangle aligned: {} folds before the repair, {} after",
+        p.flipped_faces_before_repair, p.flipped_faces
+    );
+    assert_eq!(p.flipped_faces, 0);
+    let (remesh, share, _) = remesh_along_curves(&base, &state, &solved, "30° triangle");
+    remesh_checks::assert_manifold(&remesh, "30° triangle");
+    assert_eq!(remesh.patched_places, 0);
+    assert!(share > 0.99, "{share}");
 }
 
 /// The bunny with its boundary aligned and the field renormalized (`renormalize_field`): two

@@ -27,6 +27,10 @@ use crate::param::{ConstraintCurve, ParamAnalysis, ParamError, Parameterization,
 /// 2: 0, 0, 0, 7, 1; with 3: 0, 0, 0, 2, 0 (the corner's frame off: 2, 2, 2, 9, 4).
 const APEX_CLUSTER: f64 = 3.0;
 
+/// How far from the apex of an acute corner the field is held to the corner's turning frame,
+/// in grid cells (`constraint::acute_corners`).
+const CORNER_REACH: f64 = 1.0;
+
 /// The combinatorial state after some edits: integer turns and released faces. The
 /// singularities follow from the turns alone ([`turn_index`]).
 #[derive(Clone, Debug, PartialEq)]
@@ -565,11 +569,13 @@ impl Base {
         // pairs do (sec. 3.3): on one line a fraction of a cell apart they fold the faces
         // between them.
         let radius = self.settings.cancel_pairs_within * self.grid_size();
-        let (_, apexes) = crate::constraint::acute_corners(
+        let acute = crate::constraint::acute_corners(
             &self.mesh,
             state.curves.values(),
             self.settings.symmetry,
+            self.grid_size() * CORNER_REACH,
         );
+        let apexes = acute.apexes.clone();
         let near_apex = |q: usize| {
             apexes.iter().any(|&a| {
                 (self.mesh.position(q) - self.mesh.position(a)).length() < APEX_CLUSTER * radius
@@ -602,6 +608,126 @@ impl Base {
                 state = self.commit(&state, &mv);
             }
         }
+        self.off_curves_in_wedges(state, &acute, &on_curve, radius)
+    }
+
+    /// Singularities the design puts on a curve beside the apex of an acute corner move off the
+    /// curves, into the region the corner's wedge opens into. Making the corner a lattice
+    /// corner of 2π/N asks for a singularity inside that region (a flat triangle whose corners
+    /// all become 90° needs a +1/4 inside); the design puts it near the apex, where a narrow
+    /// wedge has no vertex off the curves, so it lands on one of them. On a curve it is a
+    /// corner of that curve's line (eq. 4.9), the line turns there instead of at the corners
+    /// the geometry has, and the region's other corners collapse (a prism on a 20°–70°–90°
+    /// triangle with its features aligned: 160 folded faces, 61 after the repair). Each
+    /// singularity on a curve (not at a curve's end or where curves meet, nor on the
+    /// boundary) within [`APEX_CLUSTER`] radii of an apex, at a vertex of the region the
+    /// wedge's faces reach without crossing a curve, moves to the nearest vertex of that region
+    /// off the curves, if its index has the apex's sign (positive at an apex on the boundary,
+    /// which carries none).
+    fn off_curves_in_wedges(
+        &self,
+        mut state: EditState,
+        acute: &crate::constraint::AcuteCorners,
+        on_curve: &[bool],
+        radius: f64,
+    ) -> EditState {
+        if acute.wedges.is_empty() {
+            return state;
+        }
+        let nv = self.mesh.n_vertices();
+        // Curve edges, and how many curve edges meet at each vertex (2 inside a curve).
+        let mut curve_edge = vec![false; self.mesh.n_edges()];
+        let mut curve_degree = vec![0u32; nv];
+        for c in state.curves.values() {
+            if c.kind != crate::constraint::CurveKind::Geometric {
+                continue;
+            }
+            for (a, b) in c.segments() {
+                if let Some(h) = crate::constraint::halfedge_between(&self.mesh, a, b) {
+                    let e = self.mesh.edge(h);
+                    if !curve_edge[e] {
+                        curve_edge[e] = true;
+                        curve_degree[a] += 1;
+                        curve_degree[b] += 1;
+                    }
+                }
+            }
+        }
+        let reach = APEX_CLUSTER * radius;
+        let mut search = PathSearch::new(nv);
+        for (apex, wedge) in &acute.wedges {
+            let apex_at = self.mesh.position(*apex);
+            // The region: faces reached from the wedge without crossing a curve edge, within
+            // twice the reach of the apex.
+            let mut seen: std::collections::BTreeSet<usize> = wedge.iter().copied().collect();
+            let mut stack: Vec<usize> = wedge.clone();
+            let mut region = Vec::new();
+            while let Some(f) = stack.pop() {
+                region.push(f);
+                for h in 3 * f..3 * f + 3 {
+                    if curve_edge[self.mesh.edge(h)] {
+                        continue;
+                    }
+                    let Some(t) = self.mesh.twin(h) else { continue };
+                    let g = self.mesh.face_of(t);
+                    let near = self
+                        .mesh
+                        .face(g)
+                        .iter()
+                        .any(|&v| (self.mesh.position(v) - apex_at).length() < 2.0 * reach);
+                    if near && seen.insert(g) {
+                        stack.push(g);
+                    }
+                }
+            }
+            region.sort_unstable();
+            let mut vertices: Vec<usize> = region.iter().flat_map(|&f| self.mesh.face(f)).collect();
+            vertices.sort_unstable();
+            vertices.dedup();
+            // The apex's own index: a corner where three curves meet (a prism's) is a
+            // singularity of the sign the region's one has; where a crease turns back on a
+            // smooth surface (fandisk) the apex's is of the other sign, and the singularity
+            // beside it cancels with the branch points on the curves instead (above).
+            let apex_k = state.singularities.get(apex).copied();
+            let boundary_apex = self.mesh.is_boundary_vertex(*apex);
+            let movable: Vec<usize> = vertices
+                .iter()
+                .copied()
+                .filter(|&p| {
+                    let k = state.singularities.get(&p).copied().unwrap_or(0);
+                    let sign_ok = match apex_k {
+                        Some(a) => a.signum() == k.signum(),
+                        None => boundary_apex && k > 0,
+                    };
+                    sign_ok
+                        && p != *apex
+                        && on_curve[p]
+                        && curve_degree[p] == 2
+                        && !self.mesh.is_boundary_vertex(p)
+                        && state.singularities.contains_key(&p)
+                        && (self.mesh.position(p) - apex_at).length() < reach
+                })
+                .collect();
+            for p in movable {
+                let at = self.mesh.position(p);
+                let target = vertices
+                    .iter()
+                    .copied()
+                    .filter(|&q| {
+                        !on_curve[q]
+                            && !self.mesh.is_boundary_vertex(q)
+                            && !state.singularities.contains_key(&q)
+                    })
+                    .min_by(|&a, &b| {
+                        let d = |q: usize| (self.mesh.position(q) - at).length();
+                        d(a).total_cmp(&d(b)).then(a.cmp(&b))
+                    });
+                let Some(q) = target else { continue };
+                if let Ok(mv) = self.plan(&state, &mut search, p, q) {
+                    state = self.commit(&state, &mv);
+                }
+            }
+        }
         state
     }
 
@@ -628,12 +754,13 @@ impl Base {
         // Faces inside an acute corner between two curves take the corner's turning frame
         // instead (combined over the corners they lie in): their curves' mean would put both
         // curves on one line.
-        let (turning, _) = crate::constraint::acute_corners(
+        let acute = crate::constraint::acute_corners(
             &self.mesh,
             state.curves.values(),
             self.settings.symmetry,
+            self.grid_size() * CORNER_REACH,
         );
-        sum.extend(combined(turning));
+        sum.extend(combined(acute.alignments));
         sum.into_iter()
             .filter(|(_, (c, s))| c.hypot(*s) > 1e-9)
             .map(|(f, (c, s))| (f as u32, s.atan2(c) / n))
