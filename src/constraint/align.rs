@@ -259,9 +259,8 @@ fn beyond_the_fan(
     d: [DVec3; 2],
     reach: f64,
 ) -> Vec<(usize, f64)> {
-    let mut out = Vec::new();
     if reach <= 0.0 {
-        return out;
+        return Vec::new();
     }
     let at = mesh.position(apex);
     // At least three rings of the fan's edges, so that paths round the apex exist when a cell
@@ -284,20 +283,13 @@ fn beyond_the_fan(
     };
     let full = polar(d[1]);
     if normal == DVec3::ZERO || full <= 0.0 {
-        return out;
+        return Vec::new();
     }
-    let mut seen: std::collections::BTreeSet<usize> = wedge.iter().copied().collect();
-    let mut stack: Vec<usize> = wedge.to_vec();
-    while let Some(f) = stack.pop() {
-        for h in 3 * f..3 * f + 3 {
-            if curve_of[mesh.edge(h)].is_some() {
-                continue;
-            }
-            let Some(t) = mesh.twin(h) else { continue };
-            let g = mesh.face_of(t);
-            if seen.contains(&g) {
-                continue;
-            }
+    faces_reached(
+        mesh,
+        |e| curve_of[e].is_some(),
+        wedge,
+        |g| {
             let centre = mesh
                 .face(g)
                 .iter()
@@ -305,12 +297,37 @@ fn beyond_the_fan(
                 .sum::<DVec3>()
                 / 3.0;
             let beta = polar(centre - at);
-            if (centre - at).length() > reach || !(0.0..=full).contains(&beta) {
+            ((centre - at).length() <= reach && (0.0..=full).contains(&beta)).then(|| beta / full)
+        },
+    )
+}
+
+/// The faces reached from `start` across edges that are not curve edges (`is_curve`) and that
+/// `accept` takes, with what it says of each (`start` itself not listed), sorted by face.
+pub fn faces_reached<T>(
+    mesh: &TriMesh,
+    is_curve: impl Fn(usize) -> bool,
+    start: &[usize],
+    mut accept: impl FnMut(usize) -> Option<T>,
+) -> Vec<(usize, T)> {
+    let mut out = Vec::new();
+    let mut seen: std::collections::BTreeSet<usize> = start.iter().copied().collect();
+    let mut stack: Vec<usize> = start.to_vec();
+    while let Some(f) = stack.pop() {
+        for h in 3 * f..3 * f + 3 {
+            if is_curve(mesh.edge(h)) {
                 continue;
             }
-            seen.insert(g);
-            stack.push(g);
-            out.push((g, beta / full));
+            let Some(t) = mesh.twin(h) else { continue };
+            let g = mesh.face_of(t);
+            if seen.contains(&g) {
+                continue;
+            }
+            if let Some(x) = accept(g) {
+                seen.insert(g);
+                stack.push(g);
+                out.push((g, x));
+            }
         }
     }
     out.sort_unstable_by_key(|&(f, _)| f);

@@ -608,7 +608,7 @@ impl Base {
                 state = self.commit(&state, &mv);
             }
         }
-        self.off_curves_in_wedges(state, &acute, &on_curve, radius)
+        self.off_curves_in_wedges(state, &acute, radius)
     }
 
     /// Singularities the design puts on a curve beside the apex of an acute corner move off the
@@ -628,60 +628,50 @@ impl Base {
         &self,
         mut state: EditState,
         acute: &crate::constraint::AcuteCorners,
-        on_curve: &[bool],
         radius: f64,
     ) -> EditState {
         if acute.wedges.is_empty() {
             return state;
         }
-        let nv = self.mesh.n_vertices();
-        // Curve edges, and how many curve edges meet at each vertex (2 inside a curve).
-        let mut curve_edge = vec![false; self.mesh.n_edges()];
-        let mut curve_degree = vec![0u32; nv];
-        for c in state.curves.values() {
-            if c.kind != crate::constraint::CurveKind::Geometric {
-                continue;
-            }
-            for (a, b) in c.segments() {
-                if let Some(h) = crate::constraint::halfedge_between(&self.mesh, a, b) {
-                    let e = self.mesh.edge(h);
-                    if !curve_edge[e] {
-                        curve_edge[e] = true;
-                        curve_degree[a] += 1;
-                        curve_degree[b] += 1;
-                    }
-                }
+        let curve_edge = crate::constraint::curve_edges(
+            &self.mesh,
+            state
+                .curves
+                .values()
+                .filter(|c| c.kind == crate::constraint::CurveKind::Geometric),
+        );
+        // How many curve edges meet at each vertex: 0 off the curves, 2 inside one.
+        let mut curve_degree = vec![0u32; self.mesh.n_vertices()];
+        for (e, _) in curve_edge.iter().enumerate().filter(|(_, on)| **on) {
+            for v in self.mesh.edge_vertices(e) {
+                curve_degree[v] += 1;
             }
         }
         let reach = APEX_CLUSTER * radius;
-        let mut search = PathSearch::new(nv);
+        let mut search = PathSearch::new(self.mesh.n_vertices());
         for (apex, wedge) in &acute.wedges {
             let apex_at = self.mesh.position(*apex);
+            let near = |v: usize| (self.mesh.position(v) - apex_at).length() < reach;
             // The region: faces reached from the wedge without crossing a curve edge, within
             // twice the reach of the apex.
-            let mut seen: std::collections::BTreeSet<usize> = wedge.iter().copied().collect();
-            let mut stack: Vec<usize> = wedge.clone();
-            let mut region = Vec::new();
-            while let Some(f) = stack.pop() {
-                region.push(f);
-                for h in 3 * f..3 * f + 3 {
-                    if curve_edge[self.mesh.edge(h)] {
-                        continue;
-                    }
-                    let Some(t) = self.mesh.twin(h) else { continue };
-                    let g = self.mesh.face_of(t);
-                    let near = self
-                        .mesh
+            let beyond = crate::constraint::faces_reached(
+                &self.mesh,
+                |e| curve_edge[e],
+                wedge,
+                |g| {
+                    self.mesh
                         .face(g)
                         .iter()
-                        .any(|&v| (self.mesh.position(v) - apex_at).length() < 2.0 * reach);
-                    if near && seen.insert(g) {
-                        stack.push(g);
-                    }
-                }
-            }
-            region.sort_unstable();
-            let mut vertices: Vec<usize> = region.iter().flat_map(|&f| self.mesh.face(f)).collect();
+                        .any(|&v| (self.mesh.position(v) - apex_at).length() < 2.0 * reach)
+                        .then_some(())
+                },
+            );
+            let mut vertices: Vec<usize> = wedge
+                .iter()
+                .copied()
+                .chain(beyond.into_iter().map(|(f, _)| f))
+                .flat_map(|f| self.mesh.face(f))
+                .collect();
             vertices.sort_unstable();
             vertices.dedup();
             // The apex's own index: a corner where three curves meet (a prism's) is a
@@ -694,18 +684,18 @@ impl Base {
                 .iter()
                 .copied()
                 .filter(|&p| {
-                    let k = state.singularities.get(&p).copied().unwrap_or(0);
+                    let Some(&k) = state.singularities.get(&p) else {
+                        return false;
+                    };
                     let sign_ok = match apex_k {
                         Some(a) => a.signum() == k.signum(),
                         None => boundary_apex && k > 0,
                     };
                     sign_ok
                         && p != *apex
-                        && on_curve[p]
                         && curve_degree[p] == 2
                         && !self.mesh.is_boundary_vertex(p)
-                        && state.singularities.contains_key(&p)
-                        && (self.mesh.position(p) - apex_at).length() < reach
+                        && near(p)
                 })
                 .collect();
             for p in movable {
@@ -714,7 +704,7 @@ impl Base {
                     .iter()
                     .copied()
                     .filter(|&q| {
-                        !on_curve[q]
+                        curve_degree[q] == 0
                             && !self.mesh.is_boundary_vertex(q)
                             && !state.singularities.contains_key(&q)
                     })
