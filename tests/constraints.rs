@@ -814,6 +814,48 @@ fn an_acute_boundary_corner_does_not_collapse() {
     assert!(share > 0.99, "{share}");
 }
 
+/// Prisms over sharp corners (10° and 20°, the other corners 90° and 80° or 70°; features at
+/// 40°), meshed at about 3000 vertices: every face folded around the acute corners' caps
+/// (782 and 1340 folded faces after the repair, 2026-12-03). Three causes, each needed here:
+/// 1. a curve's line family was read from the local step's curl*-free frames, which leave the
+///    field next to singularities (turned by up to 120° along the side rectangle's edges,
+///    whose four corners are all +1/4), so a straight crease was split into runs with jogs of
+///    90° and 270°; it is read from the field now;
+/// 2. the cap's +1/4 beside the acute apex sat on a curve because the region it may move into
+///    held no vertex off the curves within two cancellation radii (every vertex there lies on
+///    the corner's two creases); the region widens until it does;
+/// 3. the last edges before the apex, whose faces the corner's turning frames hold at about
+///    45° to the crease, were put on the other family: a run whose image turns by less than
+///    60° from its neighbour's joins it.
+///
+/// Each feature curve of such a part runs between two corners without turning, so it is one
+/// run; the map is fold-free and its remesh needs no patch.
+#[test]
+fn prisms_over_sharp_corners_do_not_fold() {
+    for alpha in [10.0, 20.0] {
+        let what = format!("prism over a {alpha}° triangle, features at 40°");
+        let mesh = triangle_part(alpha, 1.5, 3000);
+        let base = Base::for_mesh(mesh.clone(), Settings::default()).unwrap();
+        let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
+        let p = &solved.param;
+        check_geometric(&base, &state, &solved);
+        assert_eq!(state.curves.len(), 9, "{what}: the prism's nine edges");
+        for c in state.curves.values() {
+            let runs = p.curves.iter().filter(|f| f.id == c.id).count();
+            assert_eq!(runs, 1, "{what}: curve {} is split into {runs} runs", c.id);
+        }
+        eprintln!(
+            "{what}: {} folds before the repair, {} after",
+            p.flipped_faces_before_repair, p.flipped_faces
+        );
+        assert_eq!(p.flipped_faces, 0, "{what}");
+        let (remesh, share, _) = remesh_along_curves(&base, &state, &solved, &what);
+        remesh_checks::assert_manifold(&remesh, &what);
+        assert_eq!(remesh.patched_places, 0, "{what}");
+        assert!(share > 0.99, "{what}: {share}");
+    }
+}
+
 /// The bunny with its boundary aligned and the field renormalized (`renormalize_field`): two
 /// boundary corners one edge apart, held by parallel lines of a short run that the rounding put
 /// on one value, folded their face (1 fold left, 2026-12-03); the re-rounding under curves now

@@ -622,8 +622,8 @@ impl Base {
     /// singularity on a curve (not at a curve's end or where curves meet, nor on the
     /// boundary) within [`APEX_CLUSTER`] radii of an apex, at a vertex of the region the
     /// wedge's faces reach without crossing a curve, moves to the nearest vertex of that region
-    /// off the curves, if its index has the apex's sign (positive at an apex on the boundary,
-    /// which carries none).
+    /// off the curves (the region widened up to eight reaches until it has one), if its index
+    /// has the apex's sign (positive at an apex on the boundary, which carries none).
     fn off_curves_in_wedges(
         &self,
         mut state: EditState,
@@ -653,27 +653,50 @@ impl Base {
             let apex_at = self.mesh.position(*apex);
             let near = |v: usize| (self.mesh.position(v) - apex_at).length() < reach;
             // The region: faces reached from the wedge without crossing a curve edge, within
-            // twice the reach of the apex.
-            let beyond = crate::constraint::faces_reached(
-                &self.mesh,
-                |e| curve_edge[e],
-                wedge,
-                |g| {
-                    self.mesh
-                        .face(g)
-                        .iter()
-                        .any(|&v| (self.mesh.position(v) - apex_at).length() < 2.0 * reach)
-                        .then_some(())
-                },
-            );
-            let mut vertices: Vec<usize> = wedge
-                .iter()
-                .copied()
-                .chain(beyond.into_iter().map(|(f, _)| f))
-                .flat_map(|f| self.mesh.face(f))
-                .collect();
-            vertices.sort_unstable();
-            vertices.dedup();
+            // `limit` of the apex.
+            let region = |limit: f64| {
+                let beyond = crate::constraint::faces_reached(
+                    &self.mesh,
+                    |e| curve_edge[e],
+                    wedge,
+                    |g| {
+                        self.mesh
+                            .face(g)
+                            .iter()
+                            .any(|&v| (self.mesh.position(v) - apex_at).length() < limit)
+                            .then_some(())
+                    },
+                );
+                let mut vertices: Vec<usize> = wedge
+                    .iter()
+                    .copied()
+                    .chain(beyond.into_iter().map(|(f, _)| f))
+                    .flat_map(|f| self.mesh.face(f))
+                    .collect();
+                vertices.sort_unstable();
+                vertices.dedup();
+                vertices
+            };
+            let vertices = region(2.0 * reach);
+            // Where it goes: the region's vertices off the curves, within twice the reach or,
+            // where a narrow wedge has none there (a 20° corner meshed at a tenth of a cell:
+            // every vertex within two cells of the apex on one of its curves), within up to
+            // eight times.
+            let free = |q: &usize| {
+                curve_degree[*q] == 0
+                    && !self.mesh.is_boundary_vertex(*q)
+                    && !state.singularities.contains_key(q)
+            };
+            let targets: Vec<usize> = [2.0, 4.0, 8.0]
+                .into_iter()
+                .map(|f| {
+                    region(f * reach)
+                        .into_iter()
+                        .filter(free)
+                        .collect::<Vec<_>>()
+                })
+                .find(|t| !t.is_empty())
+                .unwrap_or_default();
             // The apex's own index: a corner where three curves meet (a prism's) is a
             // singularity of the sign the region's one has; where a crease turns back on a
             // smooth surface (fandisk) the apex's is of the other sign, and the singularity
@@ -700,14 +723,10 @@ impl Base {
                 .collect();
             for p in movable {
                 let at = self.mesh.position(p);
-                let target = vertices
+                let target = targets
                     .iter()
                     .copied()
-                    .filter(|&q| {
-                        curve_degree[q] == 0
-                            && !self.mesh.is_boundary_vertex(q)
-                            && !state.singularities.contains_key(&q)
-                    })
+                    .filter(|q| !state.singularities.contains_key(q))
                     .min_by(|&a, &b| {
                         let d = |q: usize| (self.mesh.position(q) - at).length();
                         d(a).total_cmp(&d(b)).then(a.cmp(&b))

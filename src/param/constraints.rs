@@ -5,8 +5,8 @@
 //! crossed, so the chart of the first face maps to the chart of every later one. In the first
 //! face, one line family λ (normal n_λ of a lattice line) and the value c_κ (an integer, in
 //! units of the line spacing s) give the line n_λᵀφ = s c_κ (eq. 4.5); in a later face it reads
-//! (R^ρ n_λ)ᵀφ = s c_κ + (R^ρ n_λ)ᵀ t(W) (eq. 4.6). λ is the family along which the local step's
-//! map runs along the curve; c_κ is the average of the local step's values on the curve.
+//! (R^ρ n_λ)ᵀφ = s c_κ + (R^ρ n_λ)ᵀ t(W) (eq. 4.6). λ is the family along which the field
+//! runs along the curve; c_κ is the average of the local step's values on the curve.
 //!
 //! At a regular vertex the line is a linear equation in the vertex's unknown (eq. 4.7, C_g); at
 //! a branch point, whose value eq. 2.40 fixes by the gaps, and wherever a vertex is met twice
@@ -174,12 +174,42 @@ fn directed(mesh: &TriMesh, a: usize, b: usize) -> Option<usize> {
     mesh.outgoing(a).find(|&h| mesh.to(h) == b)
 }
 
+/// The frames a curve's line family is read from (in the disk frames).
+#[derive(Clone, Copy)]
+pub(crate) enum FamilyFrames<'a> {
+    /// The field's, which the design runs along every curve in one of its directions (N = 4,
+    /// 6). Not the local step's curl*-free frames: those leave the field next to singularities,
+    /// turned by up to 120° along a short crease between two of them, and a curve read through
+    /// them was split where the field runs straight along it.
+    Field(&'a [[DVec3; 2]]),
+    /// The curl*-free ones, for N = 2: its design holds U along every curve (modulo π), also
+    /// along two creases meeting at a right angle, so the field turns by 90° in the corner and
+    /// every curve comes out on the one family; the curl*-free frames, closer to the map the
+    /// global step makes, put such curves on the two families (fandisk with features at 40°:
+    /// 368 folded faces after the repair with them, 5404 with the field's). Their runs are
+    /// joined to their neighbours only when short ([`SHORT_RUN`]), not for a slight turn
+    /// ([`SLIGHT_TURN`]; 1414 folds with it).
+    CurlFree(&'a [[DVec3; 2]]),
+}
+
+impl<'a> FamilyFrames<'a> {
+    fn frames(self) -> &'a [[DVec3; 2]] {
+        match self {
+            FamilyFrames::Field(f) | FamilyFrames::CurlFree(f) => f,
+        }
+    }
+
+    fn is_field(self) -> bool {
+        matches!(self, FamilyFrames::Field(_))
+    }
+}
+
 /// Traces a curve over the faces on its left; `None` if some are missing (boundary).
 fn walk_left(
     mesh: &TriMesh,
     cut: &CutGraph,
     rots: &Rots,
-    disk: &[[DVec3; 2]],
+    frames: &[[DVec3; 2]],
     verts: &[usize],
     closed: bool,
 ) -> Option<Walk> {
@@ -199,10 +229,10 @@ fn walk_left(
         closing: false,
     }];
     let mut edges = Vec::with_capacity(hs.len());
-    // The edge's image under the guiding field (disk frame rows): which family the field
-    // runs along here, independent of how much curl the local step removes.
+    // The edge's image under the frames the family is read from ([`FamilyFrames`]): which
+    // family the field runs along here.
     let image = |h: usize, chart: &Aff| {
-        let (x, e) = (&disk[mesh.face_of(h)], mesh.vector(h));
+        let (x, e) = (&frames[mesh.face_of(h)], mesh.vector(h));
         EdgeImage {
             chart_rot: chart.rot,
             d: [x[0].dot(e), x[1].dot(e)],
@@ -333,7 +363,7 @@ impl Traced {
         rots: &Rots,
         lattice: Lattice,
         global: &GlobalSystem,
-        disk: &[[DVec3; 2]],
+        families: FamilyFrames,
         local_uv: &[[f64; 2]],
         measured_gaps: &[[f64; 2]],
         curves: &[ConstraintCurve],
@@ -341,7 +371,8 @@ impl Traced {
         let lines = Lines::new(lattice);
         let n_gaps = measured_gaps.len();
         let curve_ids: Vec<u32> = curves.iter().map(|c| c.id).collect();
-        let pieces = split_by_family(mesh, cut, rots, &lines, disk, curves, &curve_ids)?;
+        let pieces = split_by_family(mesh, cut, rots, &lines, families, curves, &curve_ids)?;
+        let frames = families.frames();
         let ids: Vec<u32> = pieces.iter().map(|p| curves[p.curve].id).collect();
         let w_measured: Vec<f64> = measured_gaps
             .iter()
@@ -369,7 +400,7 @@ impl Traced {
                 closed: piece.closed,
                 ..curves[piece.curve]
             };
-            let walk = walk_left(mesh, cut, rots, disk, c.vertices, c.closed)
+            let walk = walk_left(mesh, cut, rots, frames, c.vertices, c.closed)
                 .expect("split_by_family oriented the piece");
             let lines = &out.lines;
             // The family along which the field runs along the curve.
@@ -828,9 +859,26 @@ struct Piece {
 /// cell.
 const SHORT_RUN: f64 = 0.5;
 
-/// Reassigns the edges of short runs (see [`SHORT_RUN`]) to a neighbouring run's family;
+/// Runs whose image turns from a neighbour's by less than the angle between line families less
+/// this (60° for quads, 30° for G6) join it too, whatever their length: a real corner of the
+/// curve's line turns by the whole angle, and a run put on the other family although its image
+/// turns by less is one the field crosses at about half the angle (the last edges before an
+/// acute apex, whose faces the corner's turning frames hold: a 25° prism's base, meshed at a few
+/// edges per cell, was split one edge before its apex, and the wedge collapsed). Measured on
+/// prisms over 10°–35° corners and fandisk: 60° for quads is needed (49.5° left 14 folds on the
+/// 10° prism), 40° for G6 gave fandisk with N = 6 up to 36 more folds, 30° none.
+const SLIGHT_TURN: f64 = std::f64::consts::FRAC_PI_6;
+
+/// Reassigns the edges of short runs (see [`SHORT_RUN`]) and, with `slight_turns`, of runs
+/// turning slightly from a neighbour (see [`SLIGHT_TURN`]) to a neighbouring run's family;
 /// `back[i]` is edge i's image in the first chart. A curve of one run is left alone.
-fn merge_short_runs(classes: &mut [usize], back: &[[f64; 2]], closed: bool, lines: &Lines) {
+fn merge_short_runs(
+    classes: &mut [usize],
+    back: &[[f64; 2]],
+    closed: bool,
+    lines: &Lines,
+    slight_turns: bool,
+) {
     let ne = classes.len();
     // The image of a run (first edge, length): the sum of its edges'.
     let image = |(first, len): (usize, usize)| {
@@ -869,24 +917,41 @@ fn merge_short_runs(classes: &mut [usize], back: &[[f64; 2]], closed: bool, line
             let (d, n) = (image(run), lines.normals[classes[run.0]]);
             (n[1] * d[0] - n[0] * d[1]).abs()
         };
+        let nr = runs.len();
+        let neighbours_of = |r: usize| -> Vec<usize> {
+            if closed {
+                vec![(r + nr - 1) % nr, (r + 1) % nr]
+            } else {
+                [r.checked_sub(1), (r + 1 < nr).then_some(r + 1)]
+                    .into_iter()
+                    .flatten()
+                    .collect()
+            }
+        };
+        // How far the run's image turns away from its neighbours' (the least over them).
+        let turn = |r: usize| {
+            let a = image(runs[r]);
+            neighbours_of(r)
+                .into_iter()
+                .map(|q| {
+                    let b = image(runs[q]);
+                    (a[0] * b[1] - a[1] * b[0])
+                        .atan2(a[0] * b[0] + a[1] * b[1])
+                        .abs()
+                })
+                .fold(f64::INFINITY, f64::min)
+        };
+        let jog = std::f64::consts::PI / lines.normals.len() as f64 - SLIGHT_TURN;
         let Some((r, _)) = runs
             .iter()
             .enumerate()
             .map(|(r, run)| (r, extent(run)))
-            .filter(|&(_, x)| x < SHORT_RUN)
+            .filter(|&(r, x)| x < SHORT_RUN || (slight_turns && turn(r) < jog))
             .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
         else {
             return;
         };
-        let nr = runs.len();
-        let neighbours: Vec<usize> = if closed {
-            vec![(r + nr - 1) % nr, (r + 1) % nr]
-        } else {
-            [r.checked_sub(1), (r + 1 < nr).then_some(r + 1)]
-                .into_iter()
-                .flatten()
-                .collect()
-        };
+        let neighbours = neighbours_of(r);
         // The neighbour family the run's own direction crosses least.
         let (first, len) = runs[r];
         let d = image(runs[r]);
@@ -913,16 +978,17 @@ fn split_by_family(
     cut: &CutGraph,
     rots: &Rots,
     lines: &Lines,
-    disk: &[[DVec3; 2]],
+    families: FamilyFrames,
     curves: &[ConstraintCurve],
     ids: &[u32],
 ) -> Result<Vec<Piece>, ParamError> {
+    let frames = families.frames();
     let mut out = Vec::new();
     for (ci, c) in curves.iter().enumerate() {
         let reversed: Vec<usize> = c.vertices.iter().rev().copied().collect();
-        let (verts, walk) = match walk_left(mesh, cut, rots, disk, c.vertices, c.closed) {
+        let (verts, walk) = match walk_left(mesh, cut, rots, frames, c.vertices, c.closed) {
             Some(w) => (c.vertices.to_vec(), w),
-            None => match walk_left(mesh, cut, rots, disk, &reversed, c.closed) {
+            None => match walk_left(mesh, cut, rots, frames, &reversed, c.closed) {
                 Some(w) => (reversed, w),
                 None => {
                     return Err(contradiction(
@@ -964,7 +1030,7 @@ fn split_by_family(
         };
         let mut classes: Vec<usize> = (0..ne).map(class).collect();
         if c.geometric {
-            merge_short_runs(&mut classes, &back, c.closed, lines);
+            merge_short_runs(&mut classes, &back, c.closed, lines, families.is_field());
         }
         // Edge i runs from verts[i] to verts[(i + 1) % len]; a split at vertex index j sits
         // between edges j − 1 and j.
@@ -1026,7 +1092,7 @@ mod tests {
             [0.7, 0.0],
         ];
         let mut classes = vec![1, 0, 1, 0, 1, 0, 1];
-        merge_short_runs(&mut classes, &back, false, &lines);
+        merge_short_runs(&mut classes, &back, false, &lines, true);
         assert_eq!(
             classes,
             vec![1, 1, 1, 1, 1, 0, 1],
@@ -1034,11 +1100,34 @@ mod tests {
         );
         // Closed: a short run across the start joins too; a curve of one run is left alone.
         let mut classes = vec![0, 1, 1, 1, 1, 1, 1];
-        merge_short_runs(&mut classes, &back, true, &lines);
+        merge_short_runs(&mut classes, &back, true, &lines, true);
         assert_eq!(classes, vec![1; 7]);
         let mut one = vec![0; 7];
-        merge_short_runs(&mut one, &back, false, &lines);
+        merge_short_runs(&mut one, &back, false, &lines, true);
         assert_eq!(one, vec![0; 7]);
+    }
+
+    #[test]
+    fn a_run_turning_slightly_joins_its_neighbour() {
+        let lines = Lines::new(Lattice::Z2);
+        // Along u for 3 cells, then two edges at 50° (put on the other family, one cell along
+        // it): a jog, joined when the family is read from the field. Turning by 80° instead is
+        // a corner and stays.
+        let at = |deg: f64| {
+            let a = deg.to_radians();
+            [0.7 * a.cos(), 0.7 * a.sin()]
+        };
+        for (deg, joined) in [(50.0, true), (80.0, false)] {
+            let back = [at(0.0), at(0.0), at(0.0), at(0.0), at(deg), at(deg)];
+            let split = vec![1, 1, 1, 1, 0, 0];
+            let mut classes = split.clone();
+            merge_short_runs(&mut classes, &back, false, &lines, true);
+            let want = if joined { vec![1; 6] } else { split.clone() };
+            assert_eq!(classes, want, "{deg}°");
+            let mut classes = split.clone();
+            merge_short_runs(&mut classes, &back, false, &lines, false);
+            assert_eq!(classes, split, "{deg}°, curl*-free frames");
+        }
     }
 
     #[test]

@@ -853,13 +853,18 @@ impl QuadCover {
         }
         let local = local?;
         let t = Instant::now();
+        let families = if self.symmetry == 2 {
+            constraints::FamilyFrames::CurlFree(&local.disk)
+        } else {
+            constraints::FamilyFrames::Field(&local.guide)
+        };
         let traced = constraints::Traced::new(
             mesh,
             &self.cut,
             &self.rots,
             self.lattice,
             &self.global,
-            &local.disk,
+            families,
             &local.uv,
             &local.gaps,
             curves,
