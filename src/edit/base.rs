@@ -477,7 +477,13 @@ impl Base {
     /// designed again with it (matchings and singularities anew, as for a fresh solve) and the
     /// singularity edits since the last design are re-applied where they still apply.
     fn redesign(&self, mut state: EditState, cancel: Cancel) -> Result<EditState, EditError> {
-        let aligned = self.design_alignment(&state);
+        let acute = crate::constraint::acute_corners(
+            &self.mesh,
+            state.curves.values(),
+            self.settings.symmetry,
+            self.grid_size() * CORNER_REACH,
+        );
+        let aligned = self.design_alignment(&state, &acute.alignments);
         let current: &[(u32, f64)] = state.design.as_ref().map_or(&[], |d| &d.aligned);
         if aligned.as_slice() == current {
             return Ok(state);
@@ -513,7 +519,7 @@ impl Base {
         );
         state.turns = turns;
         state.released.clear();
-        let mut state = self.snap_to_curves(state);
+        let mut state = self.snap_to_curves(state, &acute);
         for edit in std::mem::take(&mut state.history) {
             match self.apply(&state, &edit, cancel) {
                 Ok(next) => state = next,
@@ -533,7 +539,11 @@ impl Base {
     /// cancellation radius cancel; near the apex of an acute corner between two curves
     /// (`constraint::acute_corners`) within [`APEX_CLUSTER`] radii, the apex itself kept.
     /// Vertices in order, so replay stays bit-identical.
-    fn snap_to_curves(&self, mut state: EditState) -> EditState {
+    fn snap_to_curves(
+        &self,
+        mut state: EditState,
+        acute: &crate::constraint::AcuteCorners,
+    ) -> EditState {
         let nv = self.mesh.n_vertices();
         let mut on_curve = vec![false; nv];
         for c in state.curves.values() {
@@ -569,13 +579,7 @@ impl Base {
         // pairs do (sec. 3.3): on one line a fraction of a cell apart they fold the faces
         // between them.
         let radius = self.settings.cancel_pairs_within * self.grid_size();
-        let acute = crate::constraint::acute_corners(
-            &self.mesh,
-            state.curves.values(),
-            self.settings.symmetry,
-            self.grid_size() * CORNER_REACH,
-        );
-        let apexes = acute.apexes.clone();
+        let apexes = &acute.apexes;
         let near_apex = |q: usize| {
             apexes.iter().any(|&a| {
                 (self.mesh.position(q) - self.mesh.position(a)).length() < APEX_CLUSTER * radius
@@ -608,7 +612,7 @@ impl Base {
                 state = self.commit(&state, &mv);
             }
         }
-        self.off_curves_in_wedges(state, &acute, radius)
+        self.off_curves_in_wedges(state, acute, radius)
     }
 
     /// Singularities the design puts on a curve beside the apex of an acute corner move off the
@@ -678,25 +682,6 @@ impl Base {
                 vertices
             };
             let vertices = region(2.0 * reach);
-            // Where it goes: the region's vertices off the curves, within twice the reach or,
-            // where a narrow wedge has none there, within up to eight times (a 20° corner of a
-            // prism meshed at 3000 vertices: every vertex within twice the reach, 0.27 model
-            // units or about five edges, lies on one of its curves).
-            let free = |q: &usize| {
-                curve_degree[*q] == 0
-                    && !self.mesh.is_boundary_vertex(*q)
-                    && !state.singularities.contains_key(q)
-            };
-            let targets: Vec<usize> = [2.0, 4.0, 8.0]
-                .into_iter()
-                .map(|f| {
-                    region(f * reach)
-                        .into_iter()
-                        .filter(free)
-                        .collect::<Vec<_>>()
-                })
-                .find(|t| !t.is_empty())
-                .unwrap_or_default();
             // The apex's own index: a corner where three curves meet (a prism's) is a
             // singularity of the sign the region's one has; where a crease turns back on a
             // smooth surface (fandisk) the apex's is of the other sign, and the singularity
@@ -721,6 +706,24 @@ impl Base {
                         && near(p)
                 })
                 .collect();
+            if movable.is_empty() {
+                continue;
+            }
+            // Where they go: the region's vertices off the curves, within twice the reach or,
+            // where a narrow wedge has none there, within up to eight times (a 20° corner of a
+            // prism meshed at 3000 vertices: every vertex within twice the reach, 0.27 model
+            // units or about five edges, lies on one of its curves).
+            let free = |q: &usize| {
+                curve_degree[*q] == 0
+                    && !self.mesh.is_boundary_vertex(*q)
+                    && !state.singularities.contains_key(q)
+            };
+            let mut targets: Vec<usize> = vertices.iter().copied().filter(free).collect();
+            for f in [4.0, 8.0] {
+                if targets.is_empty() {
+                    targets = region(f * reach).into_iter().filter(free).collect();
+                }
+            }
             for p in movable {
                 let at = self.mesh.position(p);
                 let target = targets
@@ -741,11 +744,16 @@ impl Base {
     }
 
     /// Per face along a geometric curve the direction the design holds it to: the curve edges'
-    /// directions there combined modulo 2π/N (the mean of e^{iNα}).
-    fn design_alignment(&self, state: &EditState) -> Vec<(u32, f64)> {
+    /// directions there combined modulo 2π/N (the mean of e^{iNα}); faces inside an acute
+    /// corner take the corner's turning frame (`turning`, `AcuteCorners::alignments`) instead.
+    fn design_alignment(
+        &self,
+        state: &EditState,
+        turning: &[crate::constraint::CurveAlignment],
+    ) -> Vec<(u32, f64)> {
         let n = self.settings.symmetry as f64;
         // Per face the sum of e^{iNα} over its alignments.
-        let combined = |alignments: Vec<crate::constraint::CurveAlignment>| {
+        let combined = |alignments: &[crate::constraint::CurveAlignment]| {
             let mut sum: BTreeMap<usize, (f64, f64)> = BTreeMap::new();
             for a in alignments {
                 let alpha = self.bases.angle_of(a.face, a.direction);
@@ -755,7 +763,7 @@ impl Base {
             }
             sum
         };
-        let mut sum = combined(crate::constraint::alignment(
+        let mut sum = combined(&crate::constraint::alignment(
             &self.mesh,
             state.curves.values(),
             self.grid_size() / 2.0,
@@ -763,13 +771,7 @@ impl Base {
         // Faces inside an acute corner between two curves take the corner's turning frame
         // instead (combined over the corners they lie in): their curves' mean would put both
         // curves on one line.
-        let acute = crate::constraint::acute_corners(
-            &self.mesh,
-            state.curves.values(),
-            self.settings.symmetry,
-            self.grid_size() * CORNER_REACH,
-        );
-        sum.extend(combined(acute.alignments));
+        sum.extend(combined(turning));
         sum.into_iter()
             .filter(|(_, (c, s))| c.hypot(*s) > 1e-9)
             .map(|(f, (c, s))| (f as u32, s.atan2(c) / n))

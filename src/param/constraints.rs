@@ -911,10 +911,12 @@ fn merge_short_runs(
         if runs.len() < 2 {
             return;
         }
-        // How far the run goes along its own line: the distance between the lines of the
-        // other family that bound it.
-        let extent = |&run: &(usize, usize)| {
-            let (d, n) = (image(run), lines.normals[classes[run.0]]);
+        // Each run's image, once per round.
+        let images: Vec<[f64; 2]> = runs.iter().map(|&run| image(run)).collect();
+        // How far run r goes along its own line: the distance between the lines of the other
+        // family that bound it.
+        let extent = |r: usize| {
+            let (d, n) = (images[r], lines.normals[classes[runs[r].0]]);
             (n[1] * d[0] - n[0] * d[1]).abs()
         };
         let nr = runs.len();
@@ -930,11 +932,11 @@ fn merge_short_runs(
         };
         // How far the run's image turns away from its neighbours' (the least over them).
         let turn = |r: usize| {
-            let a = image(runs[r]);
+            let a = images[r];
             neighbours_of(r)
                 .into_iter()
                 .map(|q| {
-                    let b = image(runs[q]);
+                    let b = images[q];
                     (a[0] * b[1] - a[1] * b[0])
                         .atan2(a[0] * b[0] + a[1] * b[1])
                         .abs()
@@ -942,10 +944,8 @@ fn merge_short_runs(
                 .fold(f64::INFINITY, f64::min)
         };
         let jog = std::f64::consts::PI / lines.normals.len() as f64 - SLIGHT_TURN;
-        let Some((r, _)) = runs
-            .iter()
-            .enumerate()
-            .map(|(r, run)| (r, extent(run)))
+        let Some((r, _)) = (0..nr)
+            .map(|r| (r, extent(r)))
             .filter(|&(r, x)| x < SHORT_RUN || (slight_turns && turn(r) < jog))
             .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
         else {
@@ -954,7 +954,7 @@ fn merge_short_runs(
         let neighbours = neighbours_of(r);
         // The neighbour family the run's own direction crosses least.
         let (first, len) = runs[r];
-        let d = image(runs[r]);
+        let d = images[r];
         let family = neighbours
             .iter()
             .map(|&q| classes[runs[q].0])
