@@ -59,6 +59,7 @@ fn remesh_of(name: &str, n: u32) -> Option<Case> {
 /// irregular vertices only at singularities.
 #[test]
 fn default_remeshes_are_pure_and_keep_the_topology() {
+    let mut patched = Vec::new();
     for name in meshes::EVERY_BUT_IGEA {
         for n in [4u32, 6] {
             let Some(c) = remesh_of(name, n) else { return };
@@ -119,6 +120,9 @@ fn default_remeshes_are_pure_and_keep_the_topology() {
                     assert!(lo > 3.0 && hi < 170.0, "{what}: corners {lo}°–{hi}°");
                 }
             }
+            if r.patched_places > 0 {
+                patched.push((what.clone(), r.patched_places));
+            }
             if r.purified.impure_faces == 0 && r.patched_places == 0 {
                 assert!(
                     far.is_empty(),
@@ -127,6 +131,13 @@ fn default_remeshes_are_pure_and_keep_the_topology() {
             }
         }
     }
+    // Patched places are where a map is not locally injective (issue #15's target is none):
+    // 13 over these 18 remeshes before branch points left wound wrongly were rewound again on
+    // the final map (2026-12-04), 3 since (fertility N = 4, camelhead and cerebral vessels
+    // N = 6: branch points no stiff solve within the limits winds correctly together).
+    eprintln!("patched places: {patched:?}");
+    let total: usize = patched.iter().map(|p| p.1).sum();
+    assert!(total <= 3, "patched places {patched:?}");
 }
 
 /// The smallest and largest corner angle (degrees) of the faces of `r`, or of those with a

@@ -777,6 +777,8 @@ impl QuadCover {
             rerounded = self.reround(mesh, &local, &mut gaps, &mut uv, &mut repair, cancel)?;
             repair.ms += ms(t);
         }
+        let space = self.global.map_space(mesh.n_vertices(), &gaps);
+        self.rewind_left(mesh, &local, &space, &cones, &mut uv, &mut repair, cancel);
         if cancel() {
             return Err(ParamError::Cancelled);
         }
@@ -925,6 +927,10 @@ impl QuadCover {
             )?;
             repair.ms += ms(t);
         }
+        // (re-rounded gaps change the map space: then not)
+        if rerounded.is_empty() {
+            self.rewind_left(mesh, &local, &space, &cones, &mut uv, &mut repair, cancel);
+        }
         if cancel() {
             return Err(ParamError::Cancelled);
         }
@@ -943,6 +949,39 @@ impl QuadCover {
         p.curves = fits;
         p.rerounded_gaps = rerounded;
         Ok(p)
+    }
+
+    /// After the repair and any re-rounding: branch points still wound wrongly on the final,
+    /// fold-free map rewound again ([`untangle::rewind_left`]), unless the repair is off.
+    #[allow(clippy::too_many_arguments)]
+    fn rewind_left(
+        &self,
+        mesh: &TriMesh,
+        local: &LocalSolution,
+        space: &untangle::MapSpace,
+        cones: &[f64],
+        uv: &mut [[f64; 2]],
+        repair: &mut untangle::Repair,
+        cancel: CancelCheck<'_>,
+    ) {
+        if self.opts.no_untangle || cancel() {
+            return;
+        }
+        let t = Instant::now();
+        let rewound = untangle::rewind_left(
+            mesh,
+            &self.rots,
+            space,
+            &local.disk,
+            &local.guide,
+            cones,
+            uv,
+            cancel,
+        );
+        if rewound > 0 {
+            repair.rewound += rewound;
+            repair.ms += ms(t);
+        }
     }
 
     /// The injectivity repair ([`untangle`]) unless it is off; counts the folds either way.

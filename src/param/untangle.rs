@@ -60,6 +60,9 @@ use crate::sparse::{Analysis, SparseBuilder, SpdSolver};
 
 mod rewind;
 
+/// Rounds of the second rewinding at most (each must leave fewer wrongly wound vertices).
+const WIDE_ROUNDS: usize = 3;
+
 /// Weight of the area term (Garanzha et al.'s θ).
 const THETA: f64 = 1.0 / 128.0;
 /// Rings of vertices around the folds freed in successive attempts.
@@ -629,18 +632,8 @@ pub(crate) fn repair(
     } else {
         guide.to_vec()
     };
-    // Sequential: a parallel float sum's order depends on the scheduling, and replay must be
-    // bit-identical.
-    let mean_area = (0..mesh.n_faces())
-        .map(|f| tri_area(&target(mesh, &reference, f)).abs())
-        .filter(|a| a.is_finite())
-        .sum::<f64>()
-        / mesh.n_faces() as f64;
-    let guide_area = (0..mesh.n_faces())
-        .map(|f| tri_area(&target(mesh, guide, f)).abs())
-        .filter(|a| a.is_finite())
-        .sum::<f64>()
-        / mesh.n_faces() as f64;
+    let mean_area = mean_target_area(mesh, &reference);
+    let guide_area = mean_target_area(mesh, guide);
     let Some(cones) = cones else {
         let stuck = unfold(
             mesh,
@@ -665,7 +658,18 @@ pub(crate) fn repair(
         };
     };
     let start = uv.to_vec();
-    let turned = rewind::rewind(mesh, rots, space, guide, guide_area, uv, cones, held);
+    let turned = rewind::rewind(
+        mesh,
+        rots,
+        space,
+        guide,
+        guide_area,
+        uv,
+        cones,
+        held,
+        (&rewind::LADDER, rewind::MAX_ADDED_FOLDS),
+        false,
+    );
     let mut rewound = turned.len();
     // Rewinding folds where the global step's map did not.
     let reference = if before == 0 && rewound > 0 {
@@ -706,6 +710,77 @@ pub(crate) fn repair(
             0.0
         },
     }
+}
+
+/// Branch points still wound the wrong number of turns on a repaired map without folds (their
+/// rewinding before the repair added too many folds, or the repair unwound them again, often
+/// because rewinding one unwound a branch point near it): rewound again from this map over
+/// wider, stiffer regions ([`rewind::WIDE_LADDER`]), together with the branch points near them
+/// that a try winds wrongly, and repaired with all of them held to their winding. A round is
+/// kept only when it leaves no fold and fewer wrongly wound vertices; at most
+/// [`WIDE_ROUNDS`]. Returns how many branch points were rewound. Run once on the final map (after
+/// re-rounding), not inside every repair: re-rounding repairs many candidate maps.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn rewind_left(
+    mesh: &TriMesh,
+    rots: &Rots,
+    space: &MapSpace,
+    disk: &[[DVec3; 2]],
+    guide: &[[DVec3; 2]],
+    cones: &[f64],
+    uv: &mut [[f64; 2]],
+    cancel: super::CancelCheck<'_>,
+) -> usize {
+    let mut rewound = 0;
+    let mut left = rewind::wrongly_wound(mesh, space, uv, cones);
+    if left.is_empty() || !folded(uv).is_empty() {
+        return 0;
+    }
+    let reference = references(mesh, space, disk, guide);
+    let mean_area = mean_target_area(mesh, &reference);
+    let guide_area = mean_target_area(mesh, guide);
+    for _ in 0..WIDE_ROUNDS {
+        if left.is_empty() || cancel() {
+            break;
+        }
+        let mut trial = uv.to_vec();
+        let turned = rewind::rewind(
+            mesh,
+            rots,
+            space,
+            guide,
+            guide_area,
+            &mut trial,
+            cones,
+            left.clone(),
+            (&rewind::WIDE_LADDER, rewind::WIDE_MAX_ADDED_FOLDS),
+            true,
+        );
+        if turned.is_empty() {
+            break;
+        }
+        unfold(
+            mesh, rots, space, &reference, cones, mean_area, &turned, &mut trial, cancel,
+        );
+        let after = rewind::wrongly_wound(mesh, space, &trial, cones);
+        if !folded(&trial).is_empty() || after.len() >= left.len() {
+            break;
+        }
+        uv.copy_from_slice(&trial);
+        rewound += turned.len();
+        left = after;
+    }
+    rewound
+}
+
+/// The mean area of the target triangles of `frames` (sequential: a parallel float sum's order
+/// depends on the scheduling, and replay must be bit-identical).
+fn mean_target_area(mesh: &TriMesh, frames: &[[DVec3; 2]]) -> f64 {
+    (0..mesh.n_faces())
+        .map(|f| tri_area(&target(mesh, frames, f)).abs())
+        .filter(|a| a.is_finite())
+        .sum::<f64>()
+        / mesh.n_faces() as f64
 }
 
 /// The repair proper from `uv` (module docs); returns the stuck faces.

@@ -16,6 +16,13 @@
 //! the offset is spread over the softer outer rings. The result is kept only when the branch
 //! point then winds correctly and at most [`MAX_ADDED_FOLDS`] faces more are folded; the repair
 //! unfolds those.
+//!
+//! A second round runs on the final, fold-free map ([`super::rewind_left`]) for the branch points
+//! still wound wrongly: their rewinding added too many folds, or the repair unwound them again.
+//! Most of the latter are pairs of branch points a few rings apart, where rewinding one unwinds
+//! the other. There the steps of [`WIDE_LADDER`] are wider and stiffer, a try may not wind any
+//! other branch point wrongly, and when it would, those branch points are made centres of the
+//! stiff region too and the solve is repeated ([`JOINT_TRIES`]).
 
 use std::collections::HashMap;
 
@@ -35,12 +42,23 @@ use crate::sparse::{SparseBuilder, SpdSolver};
 /// within n rings, 0 beyond, otherwise. The soft one first: it adds the fewest folds for the
 /// repair to undo (bunny, N = 4: 12 of its 16 branch points, 27 → 23 folds; the stiff one
 /// alone 27 → 93 folds and half again the repair time).
-const LADDER: [(usize, f64, usize); 2] = [(8, 10.0, 0), (8, 100.0, 1)];
+pub(crate) const LADDER: [(usize, f64, usize); 2] = [(8, 10.0, 0), (8, 100.0, 1)];
 /// Most folded faces a rewinding may add: a twist too tight for its region costs the repair
 /// more than the rewinding gains (bunny ×16 at 1.1 M faces without a limit: 239 → 1477 folds
 /// after rewinding and 11 s of repair; with it 3 s). More rings on fine meshes, where a fan is
 /// a small part of a cell, was measured and rejected (docs/untangling.md).
-const MAX_ADDED_FOLDS: i64 = 20;
+pub(crate) const MAX_ADDED_FOLDS: i64 = 20;
+/// The second round's stiffenings (after the repair, for branch points still wound wrongly):
+/// stiffer than the first round's last step, and wider.
+pub(crate) const WIDE_LADDER: [(usize, f64, usize); 2] = [(8, 100.0, 1), (12, 100.0, 1)];
+/// Stiff solves per branch point and step of the second round: b alone, then with the branch
+/// points each try wound wrongly added.
+const JOINT_TRIES: usize = 4;
+/// The second round's limit on the folds one rewinding adds. The repair's work after it grows
+/// with them, most on fine meshes, where a fan is a small part of a cell (bunny ×16 at 1.1 M
+/// faces, 26 branch points left: with 60 and steps up to 16 rings and S = 1000, 26 → 6 left in
+/// 7 s more; with 30 and these two steps, 26 → 11 in 1.2 s; with 20, 26 → 18).
+pub(crate) const WIDE_MAX_ADDED_FOLDS: i64 = 30;
 
 /// The held interior vertices of `uv` (branch points) whose fan turns by more than π off
 /// `cones[v]`.
@@ -73,6 +91,8 @@ pub(crate) fn rewind(
     uv: &mut [[f64; 2]],
     cones: &[f64],
     held: Vec<usize>,
+    (ladder, max_added): (&[(usize, f64, usize)], i64),
+    guard_others: bool,
 ) -> Vec<usize> {
     let wrong = |uv: &[[f64; 2]], v: usize| {
         !((fan_turn(mesh, uv, v) - cones[v]).abs() <= std::f64::consts::PI)
@@ -83,57 +103,116 @@ pub(crate) fn rewind(
         if !wrong(uv, b) {
             continue;
         }
-        for (rings, stiffness, stiff_rings) in LADDER {
-            let Some(y) = stiff_solve(
-                mesh,
-                rots,
-                space,
-                guide,
-                mean_area,
-                uv,
-                b,
-                (rings, stiffness, stiff_rings),
-            ) else {
-                continue;
-            };
-            // The fan of b in the trial map (b itself is held), without copying the map: at
-            // 1.1 M faces a copy per try took seconds.
-            let moved: HashMap<usize, [f64; 2]> = y.iter().copied().collect();
-            let at = |c: usize| match moved.get(&mesh.from(c)) {
-                Some(&yv) => corner_uv(rots, space, c, yv),
-                None => uv[c],
-            };
-            let turn = fan_turn_with(mesh, b, at);
-            // Folds the rewinding adds, for the repair to undo: past a few it costs more than
-            // it gains (a twist too tight for the region).
-            let mut faces: Vec<usize> = y
-                .iter()
-                .flat_map(|(v, _)| mesh.outgoing(*v).map(|h| mesh.face_of(h)))
-                .collect();
-            faces.sort_unstable();
-            faces.dedup();
-            let area = |f: usize, after: bool| -> f64 {
-                let q: [[f64; 2]; 3] =
-                    std::array::from_fn(|a| if after { at(3 * f + a) } else { uv[3 * f + a] });
-                0.5 * ((q[1][0] - q[0][0]) * (q[2][1] - q[0][1])
-                    - (q[1][1] - q[0][1]) * (q[2][0] - q[0][0]))
-            };
-            let added = faces
-                .iter()
-                .map(|&f| i64::from(!(area(f, true) > 0.0)) - i64::from(!(area(f, false) > 0.0)))
-                .sum::<i64>();
-            if (turn - cones[b]).abs() <= std::f64::consts::PI && added <= MAX_ADDED_FOLDS {
-                for (v, yv) in &y {
-                    for h in mesh.outgoing(*v) {
-                        uv[h] = corner_uv(rots, space, h, *yv);
+        'ladder: for &step in ladder {
+            // b alone; then, in the second round, b with the branch points its region unwound
+            // (two near each other otherwise take turns: rewinding one unwinds the other)
+            let mut centers = vec![b];
+            for _ in 0..JOINT_TRIES {
+                let Some(y) = stiff_solve(mesh, rots, space, guide, mean_area, uv, &centers, step)
+                else {
+                    continue 'ladder;
+                };
+                let trial = trial_of(mesh, rots, space, uv, cones, &y, &centers, guard_others);
+                if trial.centers_ok
+                    && trial.added <= max_added
+                    && (!guard_others || trial.unwound_others.is_empty())
+                {
+                    for (v, yv) in &y {
+                        for h in mesh.outgoing(*v) {
+                            uv[h] = corner_uv(rots, space, h, *yv);
+                        }
                     }
+                    for c in centers {
+                        if !done.contains(&c) {
+                            done.push(c);
+                        }
+                    }
+                    break 'ladder;
                 }
-                done.push(b);
-                break;
+                if !guard_others || trial.unwound_others.is_empty() {
+                    break;
+                }
+                centers.extend(trial.unwound_others);
             }
         }
     }
     done
+}
+
+/// What a stiff solve `y` does: whether every one of `centers` winds correctly, how many folds it
+/// adds, and (with `others`) which other branch points whose fans it moves it winds wrongly.
+struct Trial {
+    centers_ok: bool,
+    added: i64,
+    unwound_others: Vec<usize>,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn trial_of(
+    mesh: &TriMesh,
+    rots: &Rots,
+    space: &MapSpace,
+    uv: &[[f64; 2]],
+    cones: &[f64],
+    y: &[(usize, [f64; 2])],
+    centers: &[usize],
+    others: bool,
+) -> Trial {
+    let ok = |v: usize, t: f64| (t - cones[v]).abs() <= std::f64::consts::PI;
+    // The trial map without copying the map: at 1.1 M faces a copy per try took seconds.
+    let moved: HashMap<usize, [f64; 2]> = y.iter().copied().collect();
+    let at = |c: usize| match moved.get(&mesh.from(c)) {
+        Some(&yv) => corner_uv(rots, space, c, yv),
+        None => uv[c],
+    };
+    let centers_ok = centers.iter().all(|&c| ok(c, fan_turn_with(mesh, c, at)));
+    // Folds the rewinding adds, for the repair to undo: past a few it costs more than it gains
+    // (a twist too tight for the region).
+    let mut faces: Vec<usize> = y
+        .iter()
+        .flat_map(|(v, _)| mesh.outgoing(*v).map(|h| mesh.face_of(h)))
+        .collect();
+    faces.sort_unstable();
+    faces.dedup();
+    let area = |f: usize, after: bool| -> f64 {
+        let q: [[f64; 2]; 3] =
+            std::array::from_fn(|a| if after { at(3 * f + a) } else { uv[3 * f + a] });
+        0.5 * ((q[1][0] - q[0][0]) * (q[2][1] - q[0][1])
+            - (q[1][1] - q[0][1]) * (q[2][0] - q[0][0]))
+    };
+    let added = faces
+        .iter()
+        .map(|&f| i64::from(!(area(f, true) > 0.0)) - i64::from(!(area(f, false) > 0.0)))
+        .sum::<i64>();
+    if !others {
+        return Trial {
+            centers_ok,
+            added,
+            unwound_others: Vec::new(),
+        };
+    }
+    let mut others: Vec<usize> = y
+        .iter()
+        .flat_map(|(v, _)| mesh.outgoing(*v).map(|h| mesh.to(h)))
+        .filter(|&c| {
+            !centers.contains(&c)
+                && !moved.contains_key(&c)
+                && !mesh.is_boundary_vertex(c)
+                && !cones[c].is_nan()
+                && space.var[mesh.vertex_halfedge(c)] == NONE
+        })
+        .collect();
+    others.sort_unstable();
+    others.dedup();
+    let unwound_others = others
+        .into_iter()
+        .filter(|&c| ok(c, fan_turn(mesh, uv, c)) && !ok(c, fan_turn_with(mesh, c, at)))
+        .collect();
+    Trial {
+        centers_ok,
+        added,
+        unwound_others,
+    }
 }
 
 /// The minimiser of Σ s_f w_f ‖J_f − I‖² (J_f against the target triangle of `guide`) over
@@ -146,12 +225,12 @@ fn stiff_solve(
     guide: &[[DVec3; 2]],
     mean_area: f64,
     uv: &[[f64; 2]],
-    b: usize,
+    centers: &[usize],
     (rings, stiffness, stiff_rings): (usize, f64, usize),
 ) -> Option<Vec<(usize, [f64; 2])>> {
-    // Rings from b.
-    let mut dist: HashMap<usize, usize> = HashMap::from([(b, 0)]);
-    let mut front = vec![b];
+    // Rings from the centers.
+    let mut dist: HashMap<usize, usize> = centers.iter().map(|&c| (c, 0)).collect();
+    let mut front = centers.to_vec();
     for d in 1..=rings {
         let mut next = Vec::new();
         for &v in &front {
