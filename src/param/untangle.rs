@@ -667,8 +667,7 @@ pub(crate) fn repair(
         uv,
         cones,
         held,
-        (&rewind::LADDER, rewind::MAX_ADDED_FOLDS),
-        false,
+        &rewind::BEFORE_REPAIR,
     );
     let mut rewound = turned.len();
     // Rewinding folds where the global step's map did not.
@@ -715,7 +714,7 @@ pub(crate) fn repair(
 /// Branch points still wound the wrong number of turns on a repaired map without folds (their
 /// rewinding before the repair added too many folds, or the repair unwound them again, often
 /// because rewinding one unwound a branch point near it): rewound again from this map over
-/// wider, stiffer regions ([`rewind::WIDE_LADDER`]), together with the branch points near them
+/// wider, stiffer regions ([`rewind::ON_FINAL_MAP`]), together with the branch points near them
 /// that a try winds wrongly, and repaired with all of them held to their winding. A round is
 /// kept only when it leaves no fold and fewer wrongly wound vertices; at most
 /// [`WIDE_ROUNDS`]. Returns how many branch points were rewound. Run once on the final map (after
@@ -753,8 +752,7 @@ pub(crate) fn rewind_left(
             &mut trial,
             cones,
             left.clone(),
-            (&rewind::WIDE_LADDER, rewind::WIDE_MAX_ADDED_FOLDS),
-            true,
+            &rewind::ON_FINAL_MAP,
         );
         if turned.is_empty() {
             break;

@@ -42,15 +42,15 @@ use crate::sparse::{SparseBuilder, SpdSolver};
 /// within n rings, 0 beyond, otherwise. The soft one first: it adds the fewest folds for the
 /// repair to undo (bunny, N = 4: 12 of its 16 branch points, 27 → 23 folds; the stiff one
 /// alone 27 → 93 folds and half again the repair time).
-pub(crate) const LADDER: [(usize, f64, usize); 2] = [(8, 10.0, 0), (8, 100.0, 1)];
+const LADDER: [(usize, f64, usize); 2] = [(8, 10.0, 0), (8, 100.0, 1)];
 /// Most folded faces a rewinding may add: a twist too tight for its region costs the repair
 /// more than the rewinding gains (bunny ×16 at 1.1 M faces without a limit: 239 → 1477 folds
 /// after rewinding and 11 s of repair; with it 3 s). More rings on fine meshes, where a fan is
 /// a small part of a cell, was measured and rejected (docs/untangling.md).
-pub(crate) const MAX_ADDED_FOLDS: i64 = 20;
+const MAX_ADDED_FOLDS: i64 = 20;
 /// The second round's stiffenings (after the repair, for branch points still wound wrongly):
 /// stiffer than the first round's last step, and wider.
-pub(crate) const WIDE_LADDER: [(usize, f64, usize); 2] = [(8, 100.0, 1), (12, 100.0, 1)];
+const WIDE_LADDER: [(usize, f64, usize); 2] = [(8, 100.0, 1), (12, 100.0, 1)];
 /// Stiff solves per branch point and step of the second round: b alone, then with the branch
 /// points each try wound wrongly added.
 const JOINT_TRIES: usize = 4;
@@ -58,7 +58,30 @@ const JOINT_TRIES: usize = 4;
 /// with them, most on fine meshes, where a fan is a small part of a cell (bunny ×16 at 1.1 M
 /// faces, 26 branch points left: with 60 and steps up to 16 rings and S = 1000, 26 → 6 left in
 /// 7 s more; with 30 and these two steps, 26 → 11 in 1.2 s; with 20, 26 → 18).
-pub(crate) const WIDE_MAX_ADDED_FOLDS: i64 = 30;
+const WIDE_MAX_ADDED_FOLDS: i64 = 30;
+
+/// How a rewinding round tries: its stiffenings in order, the most folds one rewinding may add,
+/// and whether a try must leave every other branch point's winding as it was (joining those
+/// it would unwind as centres, [`JOINT_TRIES`]).
+pub(crate) struct Round {
+    ladder: &'static [(usize, f64, usize)],
+    max_added: i64,
+    joint: bool,
+}
+
+/// The rewinding before the repair (from the global step's map).
+pub(crate) const BEFORE_REPAIR: Round = Round {
+    ladder: &LADDER,
+    max_added: MAX_ADDED_FOLDS,
+    joint: false,
+};
+
+/// The second rewinding, on the final fold-free map ([`super::rewind_left`]).
+pub(crate) const ON_FINAL_MAP: Round = Round {
+    ladder: &WIDE_LADDER,
+    max_added: WIDE_MAX_ADDED_FOLDS,
+    joint: true,
+};
 
 /// The held interior vertices of `uv` (branch points) whose fan turns by more than π off
 /// `cones[v]`.
@@ -91,8 +114,7 @@ pub(crate) fn rewind(
     uv: &mut [[f64; 2]],
     cones: &[f64],
     held: Vec<usize>,
-    (ladder, max_added): (&[(usize, f64, usize)], i64),
-    guard_others: bool,
+    round: &Round,
 ) -> Vec<usize> {
     let wrong = |uv: &[[f64; 2]], v: usize| {
         !((fan_turn(mesh, uv, v) - cones[v]).abs() <= std::f64::consts::PI)
@@ -103,7 +125,7 @@ pub(crate) fn rewind(
         if !wrong(uv, b) {
             continue;
         }
-        'ladder: for &step in ladder {
+        'ladder: for &step in round.ladder {
             // b alone; then, in the second round, b with the branch points its region unwound
             // (two near each other otherwise take turns: rewinding one unwinds the other)
             let mut centers = vec![b];
@@ -112,10 +134,10 @@ pub(crate) fn rewind(
                 else {
                     continue 'ladder;
                 };
-                let trial = trial_of(mesh, rots, space, uv, cones, &y, &centers, guard_others);
+                let trial = trial_of(mesh, rots, space, uv, cones, &y, &centers, round.joint);
                 if trial.centers_ok
-                    && trial.added <= max_added
-                    && (!guard_others || trial.unwound_others.is_empty())
+                    && trial.added <= round.max_added
+                    && (!round.joint || trial.unwound_others.is_empty())
                 {
                     for (v, yv) in &y {
                         for h in mesh.outgoing(*v) {
@@ -129,7 +151,7 @@ pub(crate) fn rewind(
                     }
                     break 'ladder;
                 }
-                if !guard_others || trial.unwound_others.is_empty() {
+                if !round.joint || trial.unwound_others.is_empty() {
                     break;
                 }
                 centers.extend(trial.unwound_others);
