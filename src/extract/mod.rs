@@ -260,6 +260,7 @@ pub fn extract_until(
     }
     if symmetry != 2 {
         out.purified.split_vertices = pinch::split_pinched_vertices(&mut out);
+        out.purified.dropped_cells = pinch::drop_detached_cells(&mut out);
     }
     if symmetry == 4 && opts.split_to_quads {
         out = split_to_quads(&out);

@@ -87,6 +87,53 @@ pub fn split_pinched_vertices(remesh: &mut Remesh) -> usize {
     made
 }
 
+/// Drops faces that share no edge with any other face and have a copy of a pinched vertex
+/// (made by [`split_pinched_vertices`]; copies have the same position and origin as another
+/// vertex) among their corners: a cell that met the rest of the remesh only at corners, where
+/// the grid crossed a narrow part of a hole (the bunny at 1500 vertices: one quad beside its
+/// bottom hole). Kept, it would be a component of its own and raise the Euler characteristic
+/// by one. Returns the number dropped; unused vertices are removed.
+pub fn drop_detached_cells(remesh: &mut Remesh) -> usize {
+    let mut edge_faces: HashMap<(u32, u32), usize> = HashMap::new();
+    for f in &remesh.faces {
+        for k in 0..f.len() {
+            let (a, b) = (f[k], f[(k + 1) % f.len()]);
+            *edge_faces.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    let mut at: HashMap<(u64, u64, u64), usize> = HashMap::new();
+    for p in &remesh.positions {
+        *at.entry((p.x.to_bits(), p.y.to_bits(), p.z.to_bits()))
+            .or_default() += 1;
+    }
+    let is_copy = |v: u32| {
+        let p = remesh.positions[v as usize];
+        at.get(&(p.x.to_bits(), p.y.to_bits(), p.z.to_bits()))
+            .is_some_and(|&n| n > 1)
+    };
+    let detached: Vec<bool> = remesh
+        .faces
+        .iter()
+        .map(|f| {
+            let alone = (0..f.len()).all(|k| {
+                let (a, b) = (f[k], f[(k + 1) % f.len()]);
+                edge_faces[&(a.min(b), a.max(b))] == 1
+            });
+            alone && f.iter().any(|&v| is_copy(v))
+        })
+        .collect();
+    let dropped = detached.iter().filter(|&&d| d).count();
+    if dropped > 0 {
+        let mut i = 0;
+        remesh.faces.retain(|_| {
+            i += 1;
+            !detached[i - 1]
+        });
+        super::purify::compact(remesh);
+    }
+    dropped
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -145,6 +192,23 @@ mod tests {
         assert_eq!(r.faces[2], vec![4, 7, 8, 5]);
         // Nothing to split a second time, and a manifold mesh is left alone.
         assert_eq!(split_pinched_vertices(&mut r), 0);
+    }
+
+    #[test]
+    fn a_cell_the_split_leaves_alone_is_dropped_and_nothing_else() {
+        let mut r = bow_tie();
+        // No copies yet: the lone quad touches the strip at a corner, nothing is dropped.
+        assert_eq!(drop_detached_cells(&mut r), 0);
+        assert_eq!(split_pinched_vertices(&mut r), 1);
+        // Quad 0 now meets nothing: dropped, with its four vertices (the strip has the copy).
+        assert_eq!(drop_detached_cells(&mut r), 1);
+        assert_eq!(r.faces.len(), 2);
+        assert_eq!(r.positions.len(), 6);
+        assert_eq!(euler(&r), 1);
+        // The strip is left as it was (renumbered), and a second pass drops nothing.
+        let at = |v: u32| r.positions[v as usize];
+        assert_eq!(at(r.faces[0][0]), DVec3::new(1.0, 1.0, 0.0));
+        assert_eq!(drop_detached_cells(&mut r), 0);
     }
 
     #[test]

@@ -42,6 +42,9 @@ pub struct PurifyStats {
     pub cut_ears: usize,
     /// Copies made of pinched vertices, one per fan after the first (`pinch.rs`; pure or not).
     pub split_vertices: usize,
+    /// Single cells the split left hanging on their own (a quad or triangle that met the rest
+    /// only at pinched corners, beside a hole), dropped (`pinch.rs`).
+    pub dropped_cells: usize,
 }
 
 /// Makes every face a quad (`sides = 4`) or a triangle (`sides = 3`).
