@@ -133,11 +133,12 @@ fn default_remeshes_are_pure_and_keep_the_topology() {
     }
     // Patched places are where a map is not locally injective (issue #15's target is none):
     // 13 over these 18 remeshes before branch points left wound wrongly were rewound again on
-    // the final map (2026-12-04), 3 since (fertility N = 4, camelhead and cerebral vessels
-    // N = 6: branch points no stiff solve within the limits winds correctly together).
+    // the final map (2026-12-04), 3 before the second try around crowded singularities (the
+    // same day), 2 since (fertility N = 4 and cerebral vessels N = 6: branch points no stiff
+    // solve within the limits winds correctly together).
     eprintln!("patched places: {patched:?}");
     let total: usize = patched.iter().map(|p| p.1).sum();
-    assert!(total <= 3, "patched places {patched:?}");
+    assert!(total <= 2, "patched places {patched:?}");
 }
 
 /// The smallest and largest corner angle (degrees) of the faces of `r`, or of those with a
@@ -208,9 +209,12 @@ fn folded_maps_extract_like_their_repaired_maps() {
         };
         let mut counts = Vec::new();
         for no_untangle in [true, false] {
+            // Both maps on the same frames: the repair's second try on a finer grid around
+            // crowded singularities would compare a different grid.
             let settings = Settings {
                 target_vertices: (target > 0).then_some(target),
                 no_untangle,
+                refine_crowded: false,
                 ..Default::default()
             };
             let base = meshes::base_for(&path, settings);

@@ -1018,8 +1018,15 @@ impl Document {
             FoldRepair::Off => " (untangling off)".to_string(),
             _ => String::new(),
         };
+        let crowded_note = match &p.crowded_refinement {
+            Some(c) => format!(
+                "; grid up to {:.1}× finer around {} crowded singularities",
+                c.max_multiplier, c.singularities
+            ),
+            None => String::new(),
+        };
         self.param_summary = format!(
-            "{} cut paths, {} flipped faces{repair_note}, seam error {:.1e}, conformal distortion {:.3}, curl {:.3}",
+            "{} cut paths, {} flipped faces{repair_note}, seam error {:.1e}, conformal distortion {:.3}, curl {:.3}{crowded_note}",
             p.cut_paths.len(),
             p.flipped_faces,
             p.seam_max_error,

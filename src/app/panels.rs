@@ -268,6 +268,12 @@ impl EditorApp {
                 "Make tubes, handles and small holes narrower than 5 grid cells around finer, so \
                  that the grid goes around them with 5 cells and the remesh stays manifold",
             );
+        ui.checkbox(&mut d.refine_crowded, "Refine crowded singularities")
+            .on_hover_text(
+                "When the repaired map keeps folds or mis-wound vertices, solve again with the \
+                 grid up to 2× finer around singularities of one sign closer than 1.5 cells, and \
+                 keep the better map",
+            );
         ui.checkbox(&mut d.no_half_merges, "No half merges (refuse ±2/4)");
         ui.checkbox(&mut d.no_pole_merges, "No pole merges (refuse +N/N)")
             .on_hover_text(

@@ -504,6 +504,7 @@ fn stages(rows: &mut Vec<Row>, name: &str, mesh: &TriMesh) -> Result<(), CliErro
             pure_quad: false,
             no_untangle: false,
             no_poles: false,
+            no_crowded_refinement: false,
         };
         let qg = QuadCover::new(mesh, symmetry, matchings, greedy)?;
         measure(rows, name, n, "param.global (greedy rounding)", || {

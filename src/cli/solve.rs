@@ -100,6 +100,12 @@ pub struct SolveArgs {
     /// narrower than 5 grid cells around are made finer, so that the remesh stays manifold)
     #[arg(long)]
     pub no_thin_refinement: bool,
+    /// Never solve a second time on a grid made finer around crowded singularities (by default,
+    /// when the repaired map keeps folds or mis-wound vertices, the grid is made up to 2× finer
+    /// around singularities of one sign closer than 1.5 cells and the better map is kept; the
+    /// vertex count then grows a little)
+    #[arg(long)]
+    pub no_crowded_refinement: bool,
     /// `relax` edits merge singularities closer than this many grid cells [default: 1].
     #[arg(long)]
     pub relax_merge_within: Option<f64>,
@@ -220,6 +226,10 @@ struct Report {
     /// Faces the thin-part refinement made finer, and the largest multiplier (0 and 1 when
     /// nothing is thin, it is off, or the field came from a file).
     thin_parts: ThinOut,
+    /// Set when the map is the repair's second try on a grid made finer around crowded
+    /// singularities (same-sign ones closer than 1.5 cells): how many, how many faces, the
+    /// largest multiplier. `null` when the first map was kept.
+    crowded_refinement: Option<param::CrowdedRefinement>,
     #[serde(skip_serializing_if = "Option::is_none")]
     remesh: Option<RemeshQuality>,
 }
@@ -320,6 +330,9 @@ fn settings_from(args: &SolveArgs, base: Option<&Settings>) -> Result<Settings, 
     }
     if args.no_thin_refinement {
         s.refine_thin_parts = false;
+    }
+    if args.no_crowded_refinement {
+        s.refine_crowded = false;
     }
     if args.no_untangle {
         s.no_untangle = true;
@@ -756,6 +769,12 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         p.conformal_distortion.mean,
         p.conformal_distortion.p99
     ));
+    if let Some(c) = &p.crowded_refinement {
+        bar.line(format!(
+            "  second try kept: grid up to {:.1}× finer around {} crowded singularities ({} faces)",
+            c.max_multiplier, c.singularities, c.faces
+        ));
+    }
     if let Some(path) = &args.report {
         let report = Report {
             prepared_input,
@@ -777,6 +796,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             flipped_faces_before_repair: p.flipped_faces_before_repair,
             repair_ms: p.timings.repair_ms,
             rerounded_gaps: p.rerounded_gaps.clone(),
+            crowded_refinement: p.crowded_refinement.clone(),
             miswound_vertices: p
                 .miswound
                 .iter()

@@ -56,6 +56,9 @@ pub struct Settings {
     /// Make thin parts finer so that the grid goes around them with enough cells
     /// (`FieldParams::refine_thin`; default on).
     pub refine_thin_parts: bool,
+    /// When a map keeps folds or mis-wound vertices, solve again on a grid made finer around
+    /// crowded singularities and keep the better (`param::crowded`; default on).
+    pub refine_crowded: bool,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -85,6 +88,7 @@ impl Default for Settings {
             no_untangle: false,
             renormalize_field: false,
             refine_thin_parts: true,
+            refine_crowded: true,
         }
     }
 }
@@ -164,6 +168,7 @@ impl Settings {
             pure_quad: self.pure_quad && self.symmetry == 4,
             no_untangle: self.no_untangle,
             no_poles: false,
+            no_crowded_refinement: !self.refine_crowded,
         }
     }
 }

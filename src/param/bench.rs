@@ -48,6 +48,7 @@ pub fn bench_param(
             pure_quad: false,
             no_untangle: false,
             no_poles: false,
+            no_crowded_refinement: false,
         },
         ..qc
     };

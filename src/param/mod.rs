@@ -24,6 +24,7 @@
 
 mod constrained;
 mod constraints;
+pub mod crowded;
 mod cut;
 mod global;
 mod integer;
@@ -49,6 +50,7 @@ use crate::mesh::TriMesh;
 use crate::sparse::{Analysis, SolverError};
 
 pub use constraints::{ConstraintCurve, CurveFit};
+pub use crowded::CrowdedRefinement;
 pub use local::curl_star;
 pub use poles::{FileQuad, Locus, Pole, Tessellation, poles_from_quads, tessellate};
 pub use rot::Lattice;
@@ -105,6 +107,9 @@ pub struct ParamOptions {
     /// Skip alg. 6 for singularities of positive integral index (sec. 4.3): the PL map
     /// degenerates around them (fig. 4.14, left). For comparisons.
     pub no_poles: bool,
+    /// Never try a second solve on a grid made finer around crowded singularities
+    /// ([`crowded`]) when the first map keeps folds or mis-wound vertices.
+    pub no_crowded_refinement: bool,
 }
 
 /// A frame field as QuadCover consumes it (see `FrameField` in docs/CONTRACTS.md): per face the
@@ -237,6 +242,9 @@ pub struct Parameterization {
     pub conformal_distortion: Distortion,
     pub area_distortion: f64,
     pub timings: StageTimings,
+    /// Set when the map is the second try, on a grid made finer around crowded singularities
+    /// ([`crowded`]): the first ended with folds or mis-wound vertices, this one with fewer.
+    pub crowded_refinement: Option<CrowdedRefinement>,
 }
 
 /// Number of cut paths the construction yields: per component with genus g, b boundary loops
@@ -759,7 +767,44 @@ impl QuadCover {
             let p = o.qc.solve_until(&o.mesh, frames, cancel)?;
             return Ok(self.close(mesh, singularities, &o, &indices, p));
         }
-        let local = local?;
+        let first = self.solve_on(mesh, frames, singularities.clone(), local?, cancel, preview)?;
+        if self.opts.no_untangle
+            || self.opts.no_crowded_refinement
+            || (first.flipped_faces == 0 && first.miswound.is_empty())
+        {
+            return Ok(first);
+        }
+        // A second try on a grid made finer around crowded singularities; the better kept.
+        let Some((refined, refinement)) = crowded::refined_frames(mesh, &singularities, frames)
+        else {
+            return Ok(first);
+        };
+        let local = self.local_step(mesh, &refined)?;
+        let mut second =
+            self.solve_on(mesh, &refined, singularities, local, cancel, &no_preview)?;
+        let badness = |p: &Parameterization| (p.flipped_faces, p.miswound.len());
+        if badness(&second) < badness(&first) {
+            second.crowded_refinement = Some(refinement);
+            second.timings.repair_ms += first.timings.repair_ms;
+            Ok(second)
+        } else {
+            let mut first = first;
+            first.timings.repair_ms += second.timings.repair_ms;
+            Ok(first)
+        }
+    }
+
+    /// The solve without poles and curves on given frames: rounding, global step, repair,
+    /// re-rounding and the last rewinding.
+    fn solve_on(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[DVec3; 2]],
+        singularities: Vec<Singularity>,
+        local: LocalSolution,
+        cancel: CancelCheck<'_>,
+        preview: PreviewSink<'_>,
+    ) -> Result<Parameterization, ParamError> {
         let t = Instant::now();
         let gaps = self.round_gaps(mesh, &local)?;
         let mut uv = self.global_uv(mesh, &local, &gaps)?;
@@ -1106,6 +1151,7 @@ impl QuadCover {
             },
             area_distortion: q.area_distortion,
             timings: StageTimings::default(),
+            crowded_refinement: None,
         }
     }
 }
