@@ -1116,3 +1116,46 @@ fn cli_remeshes_raw_tessellations() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// The repair's second try on a grid finer around crowded singularities (`param::crowded`)
+/// under curves: kitten with features at 40°, N = 6, 1500 vertices keeps a fold on the
+/// uniform grid (measured 2026-12-04: 1 fold, 5 mis-wound vertices) and none on the refined
+/// one, whose geometric curves still lie on lattice lines to 1e-6.
+#[test]
+fn crowded_singularities_get_a_finer_grid_under_curves_too() {
+    let Some(path) = shared("kitten.obj") else {
+        return;
+    };
+    let solve = |refine_crowded| {
+        let settings = Settings {
+            symmetry: 6,
+            target_vertices: Some(1500),
+            refine_crowded,
+            ..Settings::default()
+        };
+        let base = base_for(&path, settings);
+        let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
+        (base, state, solved)
+    };
+    let (_, _, uniform) = solve(false);
+    assert!(uniform.param.crowded_refinement.is_none());
+    assert!(
+        uniform.param.flipped_faces > 0,
+        "the uniform grid no longer folds: the case tests nothing"
+    );
+    let (base, state, refined) = solve(true);
+    let r = refined
+        .param
+        .crowded_refinement
+        .as_ref()
+        .expect("second try kept");
+    assert!(
+        r.singularities > 0 && r.faces > 0 && r.max_multiplier > 1.0,
+        "{r:?}"
+    );
+    assert_eq!(refined.param.flipped_faces, 0);
+    assert!(refined.param.miswound.len() <= uniform.param.miswound.len());
+    // Same singularities (the scale does not change the indices), curves still exact.
+    assert_eq!(refined.param.singularities, uniform.param.singularities);
+    check_geometric(&base, &state, &refined);
+}

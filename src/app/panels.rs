@@ -270,8 +270,8 @@ impl EditorApp {
             );
         ui.checkbox(&mut d.refine_crowded, "Refine crowded singularities")
             .on_hover_text(
-                "When the repaired map keeps folds or mis-wound vertices, solve again with the \
-                 grid up to 2× finer around singularities of one sign closer than 1.5 cells, and \
+                "When the repaired map keeps folds or mis-wound vertices (under curves: folds), \
+                 solve again with the grid up to 2× finer around singularities of one sign closer than 1.5 cells, and \
                  keep the better map",
             );
         ui.checkbox(&mut d.no_half_merges, "No half merges (refuse ±2/4)");

@@ -101,9 +101,9 @@ pub struct SolveArgs {
     #[arg(long)]
     pub no_thin_refinement: bool,
     /// Never solve a second time on a grid made finer around crowded singularities (by default,
-    /// when the repaired map keeps folds or mis-wound vertices, the grid is made up to 2× finer
-    /// around singularities of one sign closer than 1.5 cells and the better map is kept; the
-    /// vertex count then grows a little)
+    /// when the repaired map keeps folds or mis-wound vertices, under curves folds, the grid is
+    /// made up to 2× finer around singularities of one sign closer than 1.5 cells and the
+    /// better map is kept; the vertex count then grows a little)
     #[arg(long)]
     pub no_crowded_refinement: bool,
     /// `relax` edits merge singularities closer than this many grid cells [default: 1].

@@ -56,8 +56,8 @@ pub struct Settings {
     /// Make thin parts finer so that the grid goes around them with enough cells
     /// (`FieldParams::refine_thin`; default on).
     pub refine_thin_parts: bool,
-    /// When a map keeps folds or mis-wound vertices, solve again on a grid made finer around
-    /// crowded singularities and keep the better (`param::crowded`; default on).
+    /// When a map keeps folds or mis-wound vertices (under curves: folds), solve again on a grid
+    /// made finer around crowded singularities and keep the better (`param::crowded`; default on).
     pub refine_crowded: bool,
 }
 

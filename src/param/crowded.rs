@@ -8,8 +8,9 @@
 //! sign in cells, c = [`CROWDED_WITHIN`]), falling off to 1 at [`FALLOFF`] cells. The grid size
 //! is read from the frames (|U| = m / h per face), so this works on any frames.
 //!
-//! `QuadCover::solve` uses it as a second try only: a map that ends with folds or mis-wound
-//! vertices is solved again on the refined frames and the better of the two kept (measured in
+//! `QuadCover::solve*` use it as a second try only: a map that ends with folds or mis-wound
+//! vertices (under constraint curves: folds) is solved again on the refined frames and the
+//! better of the two kept (measured in
 //! `docs/untangling.md`: always refining gave as many patched places more at the default
 //! density as it took away, and costs vertices everywhere).
 
@@ -46,39 +47,7 @@ pub fn refined_frames(
     singularities: &[Singularity],
     frames: &[[DVec3; 2]],
 ) -> Option<(Vec<[DVec3; 2]>, CrowdedRefinement)> {
-    // Grid size per vertex: the mean of 1 / |U| over its faces.
-    let mut cell = vec![(0.0, 0usize); mesh.n_vertices()];
-    for (f, fr) in frames.iter().enumerate().take(mesh.n_faces()) {
-        let u = fr[0].length();
-        if u > 0.0 && u.is_finite() {
-            for v in mesh.face(f) {
-                cell[v].0 += 1.0 / u;
-                cell[v].1 += 1;
-            }
-        }
-    }
-    let cell_at = |v: usize| (cell[v].1 > 0).then(|| cell[v].0 / cell[v].1 as f64);
-    let signed: Vec<(DVec3, bool, f64)> = singularities
-        .iter()
-        .filter(|s| s.index != 0.0)
-        .filter_map(|s| Some((mesh.position(s.vertex), s.index > 0.0, cell_at(s.vertex)?)))
-        .collect();
-    // Per crowded singularity: where, its cell, its multiplier (brute force: singularities
-    // are few against faces).
-    let crowded: Vec<(DVec3, f64, f64)> = signed
-        .iter()
-        .enumerate()
-        .filter_map(|(i, &(p, positive, h))| {
-            let d = signed
-                .iter()
-                .enumerate()
-                .filter(|&(j, q)| j != i && q.1 == positive)
-                .map(|(_, q)| q.0.distance(p))
-                .fold(f64::INFINITY, f64::min)
-                / h;
-            (d < CROWDED_WITHIN).then(|| (p, h, (CROWDED_WITHIN / d.max(1e-9)).min(MAX_MULTIPLIER)))
-        })
-        .collect();
+    let crowded = crowded(mesh, singularities, frames);
     if crowded.is_empty() {
         return None;
     }
@@ -106,6 +75,46 @@ pub fn refined_frames(
         }
     }
     Some((refined, refinement))
+}
+
+/// Per crowded singularity: where, its grid cell, its multiplier (brute force: singularities
+/// are few).
+fn crowded(
+    mesh: &TriMesh,
+    singularities: &[Singularity],
+    frames: &[[DVec3; 2]],
+) -> Vec<(DVec3, f64, f64)> {
+    // Grid size per vertex: the mean of 1 / |U| over its faces.
+    let mut cell = vec![(0.0, 0usize); mesh.n_vertices()];
+    for (f, fr) in frames.iter().enumerate().take(mesh.n_faces()) {
+        let u = fr[0].length();
+        if u > 0.0 && u.is_finite() {
+            for v in mesh.face(f) {
+                cell[v].0 += 1.0 / u;
+                cell[v].1 += 1;
+            }
+        }
+    }
+    let cell_at = |v: usize| (cell[v].1 > 0).then(|| cell[v].0 / cell[v].1 as f64);
+    let signed: Vec<(DVec3, bool, f64)> = singularities
+        .iter()
+        .filter(|s| s.index != 0.0)
+        .filter_map(|s| Some((mesh.position(s.vertex), s.index > 0.0, cell_at(s.vertex)?)))
+        .collect();
+    signed
+        .iter()
+        .enumerate()
+        .filter_map(|(i, &(p, positive, h))| {
+            let d = signed
+                .iter()
+                .enumerate()
+                .filter(|&(j, q)| j != i && q.1 == positive)
+                .map(|(_, q)| q.0.distance(p))
+                .fold(f64::INFINITY, f64::min)
+                / h;
+            (d < CROWDED_WITHIN).then(|| (p, h, (CROWDED_WITHIN / d.max(1e-9)).min(MAX_MULTIPLIER)))
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -753,6 +753,53 @@ impl QuadCover {
         cancel: CancelCheck<'_>,
         preview: PreviewSink<'_>,
     ) -> Result<Parameterization, ParamError> {
+        let first = self.solve_once(mesh, frames, curves, cancel, preview)?;
+        // Under curves only for folds: most constrained maps keep a few mis-wound vertices,
+        // and a second solve for those doubled the repair time of the constraint sweep for
+        // 10 % fewer of them (docs/untangling.md).
+        let wanted = first.flipped_faces > 0 || (curves.is_empty() && !first.miswound.is_empty());
+        if self.opts.no_untangle
+            || self.opts.no_crowded_refinement
+            || !first.poles.is_empty()
+            || !wanted
+        {
+            return Ok(first);
+        }
+        // A second try on a grid made finer around crowded singularities; the better kept (a
+        // second try that fails, e.g. curves that contradict on the finer grid, keeps the
+        // first).
+        let Some((refined, refinement)) =
+            crowded::refined_frames(mesh, &first.singularities, frames)
+        else {
+            return Ok(first);
+        };
+        let mut second = match self.solve_once(mesh, &refined, curves, cancel, &no_preview) {
+            Ok(p) => p,
+            Err(ParamError::Cancelled) => return Err(ParamError::Cancelled),
+            Err(_) => return Ok(first),
+        };
+        let badness = |p: &Parameterization| (p.flipped_faces, p.miswound.len());
+        if badness(&second) < badness(&first) {
+            second.crowded_refinement = Some(refinement);
+            second.timings.repair_ms += first.timings.repair_ms;
+            Ok(second)
+        } else {
+            let mut first = first;
+            first.timings.repair_ms += second.timings.repair_ms;
+            Ok(first)
+        }
+    }
+
+    /// One solve on given frames: under curves [`Self::solve_curves`], with poles alg. 6 on
+    /// the opened mesh, else [`Self::solve_on`].
+    fn solve_once(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[DVec3; 2]],
+        curves: &[ConstraintCurve],
+        cancel: CancelCheck<'_>,
+        preview: PreviewSink<'_>,
+    ) -> Result<Parameterization, ParamError> {
         if !curves.is_empty() {
             return self.solve_curves(mesh, frames, curves, cancel, preview);
         }
@@ -767,31 +814,7 @@ impl QuadCover {
             let p = o.qc.solve_until(&o.mesh, frames, cancel)?;
             return Ok(self.close(mesh, singularities, &o, &indices, p));
         }
-        let first = self.solve_on(mesh, frames, singularities.clone(), local?, cancel, preview)?;
-        if self.opts.no_untangle
-            || self.opts.no_crowded_refinement
-            || (first.flipped_faces == 0 && first.miswound.is_empty())
-        {
-            return Ok(first);
-        }
-        // A second try on a grid made finer around crowded singularities; the better kept.
-        let Some((refined, refinement)) = crowded::refined_frames(mesh, &singularities, frames)
-        else {
-            return Ok(first);
-        };
-        let local = self.local_step(mesh, &refined)?;
-        let mut second =
-            self.solve_on(mesh, &refined, singularities, local, cancel, &no_preview)?;
-        let badness = |p: &Parameterization| (p.flipped_faces, p.miswound.len());
-        if badness(&second) < badness(&first) {
-            second.crowded_refinement = Some(refinement);
-            second.timings.repair_ms += first.timings.repair_ms;
-            Ok(second)
-        } else {
-            let mut first = first;
-            first.timings.repair_ms += second.timings.repair_ms;
-            Ok(first)
-        }
+        self.solve_on(mesh, frames, singularities, local?, cancel, preview)
     }
 
     /// The solve without poles and curves on given frames: rounding, global step, repair,
