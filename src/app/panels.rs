@@ -270,9 +270,9 @@ impl EditorApp {
             );
         ui.checkbox(&mut d.refine_crowded, "Refine crowded singularities")
             .on_hover_text(
-                "When the repaired map keeps folds or mis-wound vertices (under curves: folds), \
-                 solve again with the grid up to 2× finer around singularities of one sign closer than 1.5 cells, and \
-                 keep the better map",
+                "While the repaired map keeps folds or mis-wound vertices (under curves: folds), \
+                 solve again (up to three times) with the grid 2–3× finer around singularities \
+                 of one sign closer than 1.5–2 cells, and keep the best map",
             );
         ui.checkbox(&mut d.no_half_merges, "No half merges (refuse ±2/4)");
         ui.checkbox(&mut d.no_pole_merges, "No pole merges (refuse +N/N)")

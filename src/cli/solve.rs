@@ -100,10 +100,10 @@ pub struct SolveArgs {
     /// narrower than 5 grid cells around are made finer, so that the remesh stays manifold)
     #[arg(long)]
     pub no_thin_refinement: bool,
-    /// Never solve a second time on a grid made finer around crowded singularities (by default,
-    /// when the repaired map keeps folds or mis-wound vertices, under curves folds, the grid is
-    /// made up to 2× finer around singularities of one sign closer than 1.5 cells and the
-    /// better map is kept; the vertex count then grows a little)
+    /// Never solve again on a grid made finer around crowded singularities (by default, while
+    /// the repaired map keeps folds or mis-wound vertices, under curves folds, up to three more
+    /// tries make the grid up to 2–3× finer around singularities of one sign closer than 1.5–2
+    /// cells, and the best map is kept; the vertex count then grows a little)
     #[arg(long)]
     pub no_crowded_refinement: bool,
     /// `relax` edits merge singularities closer than this many grid cells [default: 1].
@@ -226,9 +226,11 @@ struct Report {
     /// Faces the thin-part refinement made finer, and the largest multiplier (0 and 1 when
     /// nothing is thin, it is off, or the field came from a file).
     thin_parts: ThinOut,
-    /// Set when the map is the repair's second try on a grid made finer around crowded
-    /// singularities (same-sign ones closer than 1.5 cells): how many, how many faces, the
-    /// largest multiplier. `null` when the first map was kept.
+    /// Set when the map kept is one of the tries on a grid made finer around crowded
+    /// singularities (`param::crowded::LADDER`): the try (`crowding {within, cap}`: same-sign
+    /// singularities closer than `within` cells, the grid up to `cap` times finer), how many
+    /// singularities, how many faces, the largest multiplier. `null` when the first map was
+    /// kept.
     crowded_refinement: Option<param::CrowdedRefinement>,
     #[serde(skip_serializing_if = "Option::is_none")]
     remesh: Option<RemeshQuality>,
@@ -771,7 +773,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     ));
     if let Some(c) = &p.crowded_refinement {
         bar.line(format!(
-            "  second try kept: grid up to {:.1}× finer around {} crowded singularities ({} faces)",
+            "  finer try kept: grid up to {:.1}× finer around {} crowded singularities ({} faces)",
             c.max_multiplier, c.singularities, c.faces
         ));
     }

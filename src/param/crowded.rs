@@ -4,13 +4,13 @@
 //! densities the map folds or winds wrongly there (spot N = 6 at 1500 vertices: four +1/6
 //! within 1.5 cells on each horn). A grid finer around them gives each its cell: the faces
 //! within [`FULL`] cells of a crowded singularity get the density multiplier
-//! m = min(c / d, [`MAX_MULTIPLIER`]) (d: the distance to its nearest singularity of the same
-//! sign in cells, c = [`CROWDED_WITHIN`]), falling off to 1 at [`FALLOFF`] cells. The grid size
+//! m = min(c / d, m_max) (d: the distance to its nearest singularity of the same sign in
+//! cells, c the crowding distance of a [`Crowding`]), falling off to 1 at [`FALLOFF`] cells. The grid size
 //! is read from the frames (|U| = m / h per face), so this works on any frames.
 //!
-//! `QuadCover::solve*` use it as a second try only: a map that ends with folds or mis-wound
-//! vertices (under constraint curves: folds) is solved again on the refined frames and the
-//! better of the two kept (measured in
+//! `QuadCover::solve*` use it for further tries only: while the best map so far ends with
+//! folds or mis-wound vertices (under constraint curves: folds), it is solved again on frames
+//! refined by the next step of [`LADDER`] and the best kept (measured in
 //! `docs/untangling.md`: always refining gave as many patched places more at the default
 //! density as it took away, and costs vertices everywhere).
 
@@ -20,10 +20,31 @@ use serde::Serialize;
 use super::Singularity;
 use crate::mesh::TriMesh;
 
-/// Same-sign singularities closer than this many grid cells are crowded.
-pub const CROWDED_WITHIN: f64 = 1.5;
-/// The largest refinement around crowded singularities.
-pub const MAX_MULTIPLIER: f64 = 2.0;
+/// How crowded singularities are found and refined: same-sign singularities closer than
+/// `within` grid cells, the grid up to `cap` times finer around them.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Crowding {
+    pub within: f64,
+    pub cap: f64,
+}
+
+/// The tries after the first solve, in order: each runs only while the best map so far keeps
+/// folds or mis-wound vertices (docs/untangling.md: 1.5 cells and 2× is best at coarse
+/// densities, 2 cells at the default one, a cap of 3 on the coarsest clusters).
+pub const LADDER: [Crowding; 3] = [
+    Crowding {
+        within: 1.5,
+        cap: 2.0,
+    },
+    Crowding {
+        within: 2.0,
+        cap: 2.0,
+    },
+    Crowding {
+        within: 1.5,
+        cap: 3.0,
+    },
+];
 /// The multiplier holds within this many grid cells of a crowded singularity...
 const FULL: f64 = 1.0;
 /// ...and falls off to 1 at this many (a scale that changes within a cell or two folds the
@@ -33,7 +54,9 @@ const FALLOFF: f64 = 3.0;
 /// What the refinement did (in REPORT.json as `crowded_refinement`).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct CrowdedRefinement {
-    /// Singularities with a same-sign neighbour closer than [`CROWDED_WITHIN`] cells.
+    /// The try kept.
+    pub crowding: Option<Crowding>,
+    /// Singularities with a same-sign neighbour closer than `crowding.within` cells.
     pub singularities: usize,
     /// Faces whose grid was made finer.
     pub faces: usize,
@@ -46,12 +69,14 @@ pub fn refined_frames(
     mesh: &TriMesh,
     singularities: &[Singularity],
     frames: &[[DVec3; 2]],
+    crowding: Crowding,
 ) -> Option<(Vec<[DVec3; 2]>, CrowdedRefinement)> {
-    let crowded = crowded(mesh, singularities, frames);
+    let crowded = crowded(mesh, singularities, frames, crowding);
     if crowded.is_empty() {
         return None;
     }
     let mut refinement = CrowdedRefinement {
+        crowding: Some(crowding),
         singularities: crowded.len(),
         faces: 0,
         max_multiplier: 1.0,
@@ -83,6 +108,7 @@ fn crowded(
     mesh: &TriMesh,
     singularities: &[Singularity],
     frames: &[[DVec3; 2]],
+    Crowding { within, cap }: Crowding,
 ) -> Vec<(DVec3, f64, f64)> {
     // Grid size per vertex: the mean of 1 / |U| over its faces.
     let mut cell = vec![(0.0, 0usize); mesh.n_vertices()];
@@ -112,7 +138,7 @@ fn crowded(
                 .map(|(_, q)| q.0.distance(p))
                 .fold(f64::INFINITY, f64::min)
                 / h;
-            (d < CROWDED_WITHIN).then(|| (p, h, (CROWDED_WITHIN / d.max(1e-9)).min(MAX_MULTIPLIER)))
+            (d < within).then(|| (p, h, (within / d.max(1e-9)).min(cap)))
         })
         .collect()
 }
@@ -159,13 +185,13 @@ mod tests {
             sing(v(8, 10), -0.25),
             sing(v(16, 10), 0.25),
         ];
-        assert!(refined_frames(&mesh, &apart, &frames).is_none());
+        assert!(refined_frames(&mesh, &apart, &frames, LADDER[0]).is_none());
         let close = [
             sing(v(4, 10), 0.25),
             sing(v(8, 10), 0.25),
             sing(v(16, 2), -0.25),
         ];
-        let (refined, r) = refined_frames(&mesh, &close, &frames).unwrap();
+        let (refined, r) = refined_frames(&mesh, &close, &frames, LADDER[0]).unwrap();
         assert_eq!(r.singularities, 2);
         assert!((r.max_multiplier - 1.5).abs() < 1e-12, "{r:?}");
         for (f, (a, b)) in frames.iter().zip(&refined).enumerate() {

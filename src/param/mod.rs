@@ -242,8 +242,9 @@ pub struct Parameterization {
     pub conformal_distortion: Distortion,
     pub area_distortion: f64,
     pub timings: StageTimings,
-    /// Set when the map is the second try, on a grid made finer around crowded singularities
-    /// ([`crowded`]): the first ended with folds or mis-wound vertices, this one with fewer.
+    /// Set when the map is one of the tries on a grid made finer around crowded singularities
+    /// ([`crowded::LADDER`]): the first ended with folds or mis-wound vertices, this one with
+    /// fewer.
     pub crowded_refinement: Option<CrowdedRefinement>,
 }
 
@@ -757,37 +758,46 @@ impl QuadCover {
         // Under curves only for folds: most constrained maps keep a few mis-wound vertices,
         // and a second solve for those doubled the repair time of the constraint sweep for
         // 10 % fewer of them (docs/untangling.md).
-        let wanted = first.flipped_faces > 0 || (curves.is_empty() && !first.miswound.is_empty());
+        let done = |p: &Parameterization| {
+            p.flipped_faces == 0 && (!curves.is_empty() || p.miswound.is_empty())
+        };
         if self.opts.no_untangle
             || self.opts.no_crowded_refinement
             || !first.poles.is_empty()
-            || !wanted
+            || done(&first)
         {
             return Ok(first);
         }
-        // A second try on a grid made finer around crowded singularities; the better kept (a
-        // second try that fails, e.g. curves that contradict on the finer grid, keeps the
-        // first).
-        let Some((refined, refinement)) =
-            crowded::refined_frames(mesh, &first.singularities, frames)
-        else {
-            return Ok(first);
-        };
-        let mut second = match self.solve_once(mesh, &refined, curves, cancel, &no_preview) {
-            Ok(p) => p,
-            Err(ParamError::Cancelled) => return Err(ParamError::Cancelled),
-            Err(_) => return Ok(first),
-        };
+        // Tries on grids made finer around crowded singularities ([`crowded::LADDER`]), while
+        // the best map so far keeps something; the best kept (a try that fails, e.g. curves
+        // that contradict on the finer grid, is skipped).
         let badness = |p: &Parameterization| (p.flipped_faces, p.miswound.len());
-        if badness(&second) < badness(&first) {
-            second.crowded_refinement = Some(refinement);
-            second.timings.repair_ms += first.timings.repair_ms;
-            Ok(second)
-        } else {
-            let mut first = first;
-            first.timings.repair_ms += second.timings.repair_ms;
-            Ok(first)
+        let mut best = first;
+        let mut spent = 0.0;
+        for crowding in crowded::LADDER {
+            if done(&best) {
+                break;
+            }
+            let Some((refined, refinement)) =
+                crowded::refined_frames(mesh, &best.singularities, frames, crowding)
+            else {
+                continue;
+            };
+            let mut next = match self.solve_once(mesh, &refined, curves, cancel, &no_preview) {
+                Ok(p) => p,
+                Err(ParamError::Cancelled) => return Err(ParamError::Cancelled),
+                Err(_) => continue,
+            };
+            if badness(&next) < badness(&best) {
+                spent += best.timings.repair_ms;
+                next.crowded_refinement = Some(refinement);
+                best = next;
+            } else {
+                spent += next.timings.repair_ms;
+            }
         }
+        best.timings.repair_ms += spent;
+        Ok(best)
     }
 
     /// One solve on given frames: under curves [`Self::solve_curves`], with poles alg. 6 on
