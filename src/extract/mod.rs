@@ -259,8 +259,9 @@ pub fn extract_until(
         }
     }
     if symmetry != 2 {
-        out.purified.split_vertices = pinch::split_pinched_vertices(&mut out);
-        out.purified.dropped_cells = pinch::drop_detached_cells(&mut out);
+        let split = pinch::split_pinched_vertices(&mut out);
+        out.purified.split_vertices = split.len();
+        out.purified.dropped_cells = pinch::drop_detached_cells(&mut out, &split);
     }
     if symmetry == 4 && opts.split_to_quads {
         out = split_to_quads(&out);

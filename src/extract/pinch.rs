@@ -6,7 +6,7 @@
 //! position and origin): the remesh stays a manifold with the input's topology, and the copies
 //! are boundary vertices that relaxation moves along their own pieces of boundary.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use super::Remesh;
 use crate::mesh::disjoint::Disjoint;
@@ -65,11 +65,11 @@ pub fn pinched_vertices(remesh: &Remesh) -> usize {
     fans(remesh).len()
 }
 
-/// Gives every fan after the first of a pinched vertex its own copy of the vertex; returns the
-/// number of copies made.
-pub fn split_pinched_vertices(remesh: &mut Remesh) -> usize {
+/// Gives every fan after the first of a pinched vertex its own copy of the vertex; returns
+/// the (vertex, copy) pairs made.
+pub fn split_pinched_vertices(remesh: &mut Remesh) -> Vec<[u32; 2]> {
     let pinched = fans(remesh);
-    let mut made = 0;
+    let mut made = Vec::new();
     for (v, groups) in pinched {
         for group in groups.into_iter().skip(1) {
             let copy = remesh.positions.len() as u32;
@@ -81,45 +81,33 @@ pub fn split_pinched_vertices(remesh: &mut Remesh) -> usize {
             for (fi, k) in group {
                 remesh.faces[fi][k] = copy;
             }
-            made += 1;
+            made.push([v, copy]);
         }
     }
     made
 }
 
-/// Drops faces that share no edge with any other face and have a copy of a pinched vertex
-/// (made by [`split_pinched_vertices`]; copies have the same position and origin as another
-/// vertex) among their corners: a cell that met the rest of the remesh only at corners, where
-/// the grid crossed a narrow part of a hole (the bunny at 1500 vertices: one quad beside its
-/// bottom hole). Kept, it would be a component of its own and raise the Euler characteristic
-/// by one. Returns the number dropped; unused vertices are removed.
-pub fn drop_detached_cells(remesh: &mut Remesh) -> usize {
-    let mut edge_faces: HashMap<(u32, u32), usize> = HashMap::new();
-    for f in &remesh.faces {
-        for k in 0..f.len() {
-            let (a, b) = (f[k], f[(k + 1) % f.len()]);
-            *edge_faces.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
+/// Drops faces that share no edge with any other face and have a vertex of `split` (the pairs
+/// [`split_pinched_vertices`] made) among their corners: a cell that met the rest of the
+/// remesh only at corners, where the grid crossed a narrow part of a hole (the bunny at 1500
+/// vertices: one quad beside its bottom hole). Kept, it would be a component of its own and
+/// raise the Euler characteristic by one. Returns the number dropped; unused vertices are
+/// removed.
+pub fn drop_detached_cells(remesh: &mut Remesh, split: &[[u32; 2]]) -> usize {
+    if split.is_empty() {
+        return 0;
     }
-    let mut at: HashMap<(u64, u64, u64), usize> = HashMap::new();
-    for p in &remesh.positions {
-        *at.entry((p.x.to_bits(), p.y.to_bits(), p.z.to_bits()))
-            .or_default() += 1;
-    }
-    let is_copy = |v: u32| {
-        let p = remesh.positions[v as usize];
-        at.get(&(p.x.to_bits(), p.y.to_bits(), p.z.to_bits()))
-            .is_some_and(|&n| n > 1)
-    };
+    let was_split: HashSet<u32> = split.iter().flatten().copied().collect();
+    let (uses, _, _) = super::quality::edge_incidence(remesh);
     let detached: Vec<bool> = remesh
         .faces
         .iter()
         .map(|f| {
             let alone = (0..f.len()).all(|k| {
                 let (a, b) = (f[k], f[(k + 1) % f.len()]);
-                edge_faces[&(a.min(b), a.max(b))] == 1
+                uses[&(a.min(b), a.max(b))] == 1
             });
-            alone && f.iter().any(|&v| is_copy(v))
+            alone && f.iter().any(|v| was_split.contains(v))
         })
         .collect();
     let dropped = detached.iter().filter(|&&d| d).count();
@@ -179,7 +167,7 @@ mod tests {
         // Two discs glued at a point: χ = 1 instead of 2.
         assert_eq!(euler(&r), 1);
         assert_eq!(pinched_vertices(&r), 1);
-        assert_eq!(split_pinched_vertices(&mut r), 1);
+        assert_eq!(split_pinched_vertices(&mut r), vec![[2, 9]]);
         assert_eq!(pinched_vertices(&r), 0);
         assert_eq!(euler(&r), 2);
         assert_eq!(r.positions.len(), 10);
@@ -191,24 +179,27 @@ mod tests {
         assert_eq!(r.faces[1], vec![9, 4, 5, 6]);
         assert_eq!(r.faces[2], vec![4, 7, 8, 5]);
         // Nothing to split a second time, and a manifold mesh is left alone.
-        assert_eq!(split_pinched_vertices(&mut r), 0);
+        assert!(split_pinched_vertices(&mut r).is_empty());
     }
 
     #[test]
     fn a_cell_the_split_leaves_alone_is_dropped_and_nothing_else() {
         let mut r = bow_tie();
-        // No copies yet: the lone quad touches the strip at a corner, nothing is dropped.
-        assert_eq!(drop_detached_cells(&mut r), 0);
-        assert_eq!(split_pinched_vertices(&mut r), 1);
+        // Nothing split yet: the lone quad touches the strip at a corner, nothing is dropped.
+        assert_eq!(drop_detached_cells(&mut r, &[]), 0);
+        let split = split_pinched_vertices(&mut r);
+        assert_eq!(split.len(), 1);
         // Quad 0 now meets nothing: dropped, with its four vertices (the strip has the copy).
-        assert_eq!(drop_detached_cells(&mut r), 1);
+        assert_eq!(drop_detached_cells(&mut r, &split), 1);
         assert_eq!(r.faces.len(), 2);
         assert_eq!(r.positions.len(), 6);
         assert_eq!(euler(&r), 1);
-        // The strip is left as it was (renumbered), and a second pass drops nothing.
-        let at = |v: u32| r.positions[v as usize];
-        assert_eq!(at(r.faces[0][0]), DVec3::new(1.0, 1.0, 0.0));
-        assert_eq!(drop_detached_cells(&mut r), 0);
+        // The strip is left as it was (renumbered), and its faces, which share an edge, are
+        // kept even with the copy among their corners.
+        let copy = r.faces[0][0];
+        assert_eq!(r.positions[copy as usize], DVec3::new(1.0, 1.0, 0.0));
+        assert_eq!(drop_detached_cells(&mut r, &[[copy, copy]]), 0);
+        assert_eq!(r.faces.len(), 2);
     }
 
     #[test]
@@ -233,6 +224,6 @@ mod tests {
             ..Default::default()
         };
         assert_eq!(pinched_vertices(&r), 0);
-        assert_eq!(split_pinched_vertices(&mut r), 0);
+        assert!(split_pinched_vertices(&mut r).is_empty());
     }
 }

@@ -107,8 +107,8 @@ pub struct ParamOptions {
     /// Skip alg. 6 for singularities of positive integral index (sec. 4.3): the PL map
     /// degenerates around them (fig. 4.14, left). For comparisons.
     pub no_poles: bool,
-    /// Never try a second solve on a grid made finer around crowded singularities
-    /// ([`crowded`]) when the first map keeps folds or mis-wound vertices.
+    /// Never solve again on grids made finer around crowded singularities
+    /// ([`crowded::LADDER`]) when the first map keeps folds or mis-wound vertices.
     pub no_crowded_refinement: bool,
 }
 
