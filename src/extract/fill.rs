@@ -1,7 +1,8 @@
 //! Local patching of the holes that extraction leaves where it could not close a face (around
 //! flipped or degenerate triangles): each hole loop in the interior of the surface becomes one
 //! polygon, so the output is closed wherever the input was. Loops along the input's boundary are
-//! real boundaries and stay open.
+//! real boundaries and stay open. Before that, pleats go: a face traced twice, once on each
+//! sheet of a fold, with opposite orientations ([`drop_pleats`]).
 
 use std::collections::HashMap;
 
@@ -99,6 +100,94 @@ pub fn fill_holes(
     filled
 }
 
+/// A face and its reverse both present where one of their edges is in more than two faces and
+/// one of their vertices is in no other face: a pleat, the same grid cell traced on both sheets
+/// of a fold in the map (that vertex is a grid point inside the fold whose two traced edges
+/// bound the cell on either side). Both copies are dropped, leaving the edge they hang from with
+/// its two real faces; whatever else they leave open is a hole for [`fill_holes`]. Left alone:
+/// two reversed faces making a closed surface on their own (a pillow: every edge in exactly two
+/// faces), and a tube two cells around (every quad has its reverse, every vertex is in four
+/// faces: a grid too coarse, which is reported, not a fold). Returns how many pairs were
+/// dropped.
+pub fn drop_pleats(faces: &mut Vec<Vec<u32>>) -> usize {
+    // The cycle rotated to start at its smallest vertex: equal for the same face.
+    let canonical = |f: &[u32]| -> Vec<u32> {
+        let k = (0..f.len()).min_by_key(|&i| f[i]).unwrap_or(0);
+        f[k..].iter().chain(&f[..k]).copied().collect()
+    };
+    let mut edge_faces: HashMap<(u32, u32), usize> = HashMap::new();
+    for f in faces.iter() {
+        for k in 0..f.len() {
+            let (a, b) = (f[k], f[(k + 1) % f.len()]);
+            *edge_faces.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    let mut vertex_faces: HashMap<u32, usize> = HashMap::new();
+    for f in faces.iter() {
+        for &v in f {
+            *vertex_faces.entry(v).or_default() += 1;
+        }
+    }
+    let pleat = |f: &[u32]| {
+        (0..f.len()).any(|k| {
+            let (a, b) = (f[k], f[(k + 1) % f.len()]);
+            edge_faces[&(a.min(b), a.max(b))] > 2
+        }) && f.iter().any(|v| vertex_faces[v] == 2)
+    };
+    let mut index: HashMap<Vec<u32>, Vec<usize>> = HashMap::new();
+    for (i, f) in faces.iter().enumerate() {
+        index.entry(canonical(f)).or_default().push(i);
+    }
+    let mut drop = vec![false; faces.len()];
+    let mut pairs = 0;
+    for (i, f) in faces.iter().enumerate() {
+        if drop[i] || !pleat(f) {
+            continue;
+        }
+        let reversed: Vec<u32> = f.iter().rev().copied().collect();
+        let partner = index
+            .get(&canonical(&reversed))
+            .and_then(|js| js.iter().copied().find(|&j| j != i && !drop[j]));
+        if let Some(j) = partner {
+            drop[i] = true;
+            drop[j] = true;
+            pairs += 1;
+        }
+    }
+    if pairs > 0 {
+        let mut k = 0;
+        faces.retain(|_| {
+            k += 1;
+            !drop[k - 1]
+        });
+    }
+    pairs
+}
+
+/// Faces that share no edge with any other face and touch no input boundary: fragments of a
+/// fold, left standing in a hole (often touching its rim at one vertex, so that the rim passes
+/// that vertex twice and [`fill_holes`] could not close it). Dropped; returns how many.
+pub fn drop_stray_faces(faces: &mut Vec<Vec<u32>>, on_input_boundary: &[bool]) -> usize {
+    let mut uses: HashMap<(u32, u32), usize> = HashMap::new();
+    for f in faces.iter() {
+        for k in 0..f.len() {
+            let (a, b) = (f[k], f[(k + 1) % f.len()]);
+            *uses.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    let stray = |f: &Vec<u32>| {
+        (0..f.len()).all(|k| {
+            let (a, b) = (f[k], f[(k + 1) % f.len()]);
+            uses[&(a.min(b), a.max(b))] == 1
+        }) && f
+            .iter()
+            .all(|&v| !on_input_boundary.get(v as usize).copied().unwrap_or(true))
+    };
+    let before = faces.len();
+    faces.retain(|f| !stray(f));
+    before - faces.len()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -141,5 +230,55 @@ mod tests {
         assert_eq!(fill_holes(&mut faces, &on_boundary, 32), 2);
         assert_eq!(faces.len(), 16);
         assert!(faces[14..].iter().all(|f| f.len() == 4 && f.contains(&12)));
+    }
+
+    /// A 3 × 3 grid of quads with a pleat hanging from the edge 5–6 (a point 16 inside a fold,
+    /// the triangle 5, 6, 16 traced once per sheet): both copies go, the grid is left as it
+    /// was. Two reversed quads on their own (a pillow) stay, and so does a tube two cells around.
+    #[test]
+    fn pleats_are_dropped_and_pillows_kept() {
+        let id = |i: u32, j: u32| j * 4 + i;
+        let mut faces: Vec<Vec<u32>> = Vec::new();
+        for j in 0..3 {
+            for i in 0..3 {
+                faces.push(vec![id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]);
+            }
+        }
+        let grid = faces.clone();
+        faces.insert(4, vec![5, 6, 16]);
+        faces.push(vec![16, 6, 5]);
+        assert_eq!(drop_pleats(&mut faces), 1);
+        assert_eq!(faces, grid);
+        assert_eq!(drop_pleats(&mut faces), 0);
+        let mut pillow = vec![vec![0, 1, 2, 3], vec![3, 2, 1, 0]];
+        assert_eq!(drop_pleats(&mut pillow), 0);
+        assert_eq!(pillow.len(), 2);
+        // A tube two cells around: rings (0, 1), (2, 3), (4, 5), each ring's quads reversed.
+        let mut tube: Vec<Vec<u32>> = (0..3)
+            .flat_map(|r| {
+                let (a0, a1, b0, b1) = (2 * r, 2 * r + 1, (2 * r + 2) % 6, (2 * r + 3) % 6);
+                [vec![a0, a1, b1, b0], vec![a1, a0, b0, b1]]
+            })
+            .collect();
+        assert_eq!(drop_pleats(&mut tube), 0);
+        assert_eq!(tube.len(), 6);
+    }
+
+    /// A triangle left in a hole, touching its rim at one vertex: the rim passes that vertex
+    /// twice, so nothing is filled until the triangle goes; then the hole is one quad again.
+    #[test]
+    fn a_stray_face_in_a_hole_is_dropped_and_the_hole_filled() {
+        let mut on_boundary = Vec::new();
+        let mut faces = grid_without(&[(1, 1)], &mut on_boundary);
+        on_boundary.resize(27, false);
+        faces.push(vec![6, 25, 26]);
+        let grid = faces.len() - 1;
+        assert_eq!(fill_holes(&mut faces, &on_boundary, 32), 0);
+        assert_eq!(drop_stray_faces(&mut faces, &on_boundary), 1);
+        assert_eq!(faces.len(), grid);
+        assert_eq!(fill_holes(&mut faces, &on_boundary, 32), 1);
+        // A lone quad on the input boundary (a small part of its own) stays.
+        let mut lone = vec![vec![0, 1, 2, 3]];
+        assert_eq!(drop_stray_faces(&mut lone, &[true; 4]), 0);
     }
 }

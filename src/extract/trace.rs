@@ -622,6 +622,10 @@ pub fn extract_grid(p: &Param, opts: &ExtractOptions) -> Remesh {
             }
         }
     }
+    // A cell traced on both sheets of a fold, once per orientation: neither copy is surface.
+    patched += fill::drop_pleats(&mut faces);
+    // Fragments of a fold standing alone in a hole would keep it from being filled.
+    patched += fill::drop_stray_faces(&mut faces, &on_boundary);
     // Patch the holes left by faces that could not be closed (their count is in `patched`).
     fill::fill_holes(&mut faces, &on_boundary, opts.max_face_sides);
     // Compact.
