@@ -134,11 +134,11 @@ fn default_remeshes_are_pure_and_keep_the_topology() {
     // Patched places are where a map is not locally injective (issue #15's target is none):
     // 13 over these 18 remeshes before branch points left wound wrongly were rewound again on
     // the final map (2026-12-04), 3 before the tries around crowded singularities (the same
-    // day), 1 since (fertility N = 4: branch points no stiff solve within the limits winds
-    // correctly together).
+    // day), 1 before the re-rounding for windings (fertility N = 4: branch points no stiff
+    // solve within the limits winds correctly together; one gap moved by a lattice step
+    // does), none since.
     eprintln!("patched places: {patched:?}");
-    let total: usize = patched.iter().map(|p| p.1).sum();
-    assert!(total <= 1, "patched places {patched:?}");
+    assert!(patched.is_empty(), "patched places {patched:?}");
 }
 
 /// The smallest and largest corner angle (degrees) of the faces of `r`, or of those with a
@@ -197,8 +197,11 @@ fn purify_is_what_makes_the_bunny_all_quads() {
 /// Issue check: a folded parameterization (the global step without the injectivity repair, at a
 /// coarse density where it folds most) extracts to an all-quad manifold mesh with the same
 /// counts, within 1 %, as the same map after the repair: folds are traced through, not cut out.
+/// The folded map is the global step's on the repaired map's frames and gaps (the repair may
+/// re-round a gap, which changes the layout).
 #[test]
 fn folded_maps_extract_like_their_repaired_maps() {
+    use quadcover::param::QuadCover;
     for (name, target) in [
         ("bunny.obj", 1500),
         ("camelhead.obj", 1500),
@@ -207,21 +210,33 @@ fn folded_maps_extract_like_their_repaired_maps() {
         let Some(path) = meshes::shared(name) else {
             return;
         };
+        // On one grid: the repair's further tries on a finer grid around crowded
+        // singularities would compare a different grid.
+        let settings = Settings {
+            target_vertices: (target > 0).then_some(target),
+            refine_crowded: false,
+            ..Default::default()
+        };
+        let base = meshes::base_for(&path, settings.clone());
+        let solved = base.solve(base.initial(), &never).unwrap();
+        let mesh = base.mesh();
+        let qc =
+            QuadCover::new(mesh, 4, &solved.field.matchings, settings.param_options()).unwrap();
+        let local = qc.local_step(mesh, &solved.field.frames).unwrap();
+        let folded_uv = qc.global_uv(mesh, &local, &solved.param.gaps).unwrap();
+        let folds = quadcover::param::folded_faces(&folded_uv).len();
+        // (fertility at the default density has the fewest: 6)
+        assert!(
+            folds >= 5,
+            "{name}: only {folds} folds without the repair, the case tests nothing"
+        );
         let mut counts = Vec::new();
-        for no_untangle in [true, false] {
-            // Both maps on the same frames: the repair's second try on a finer grid around
-            // crowded singularities would compare a different grid.
-            let settings = Settings {
-                target_vertices: (target > 0).then_some(target),
-                no_untangle,
-                refine_crowded: false,
-                ..Default::default()
-            };
-            let base = meshes::base_for(&path, settings);
-            let solved = base.solve(base.initial(), &never).unwrap();
-            let mesh = base.mesh();
-            let r = extract(mesh, &solved.param.uv, 4, &ExtractOptions::default()).unwrap();
-            let what = format!("{name} no_untangle={no_untangle}");
+        for (what, uv, folded) in [
+            ("folded", &folded_uv, folds),
+            ("repaired", &solved.param.uv, solved.param.flipped_faces),
+        ] {
+            let r = extract(mesh, uv, 4, &ExtractOptions::default()).unwrap();
+            let what = format!("{name} {what}");
             assert!(
                 r.faces.iter().all(|f| f.len() == 4),
                 "{what}: not all quads"
@@ -233,19 +248,11 @@ fn folded_maps_extract_like_their_repaired_maps() {
                 "{what}: Euler"
             );
             println!(
-                "{what}: {} folded, {} vertices, {} faces, {} patched",
-                solved.param.flipped_faces,
+                "{what}: {folded} folded, {} vertices, {} faces, {} patched",
                 r.positions.len(),
                 r.faces.len(),
                 r.patched_places
             );
-            if no_untangle {
-                assert!(
-                    solved.param.flipped_faces >= 10,
-                    "{what}: only {} folds, the case tests nothing",
-                    solved.param.flipped_faces
-                );
-            }
             counts.push((r.positions.len() as f64, r.faces.len() as f64));
         }
         let ((v0, f0), (v1, f1)) = (counts[0], counts[1]);

@@ -7,7 +7,7 @@
 use super::CancelCheck;
 use super::constrained::{self, ConstrainedStep};
 use super::constraints::Traced;
-use super::{LocalSolution, ParamError, QuadCover, Rerounded, cut, untangle};
+use super::{LocalSolution, ParamError, Parameterization, QuadCover, Rerounded, cut, untangle};
 use crate::mesh::TriMesh;
 
 /// Gaps tried per round when the repair left folds ([`QuadCover::reround`]), the best
@@ -16,7 +16,19 @@ const REROUND_GAPS: usize = 8;
 /// Curve values tried per round of the re-rounding under curves ([`values_near`]).
 const REROUND_VALUES: usize = 4;
 const REROUND_TRIES: usize = 3;
+/// Gaps per cut path.
+type Gaps = Vec<[f64; 2]>;
+/// [`QuadCover::ranked_steps`]: the base map and the stepped gaps, best first.
+type RankedSteps = (Vec<[f64; 2]>, Vec<Gaps>);
 const REROUND_ROUNDS: usize = 6;
+/// Rounds of [`QuadCover::reround_windings`].
+const WINDING_ROUNDS: usize = 4;
+/// [`QuadCover::reround_windings`] runs for at most this many wrongly wound vertices: more
+/// are a detailed scan on a coarse grid, where the pass is slow for little (igea at 1500
+/// vertices, N = 4: 10 → 42 s of repair for 18 → 16).
+const WINDING_MAX_VERTICES: usize = 12;
+/// Rings around the wrongly wound vertices over which candidates are ranked.
+const WINDING_RANK_RINGS: usize = 4;
 
 impl QuadCover {
     /// The gaps the held corners near the folded faces depend on, at most [`REROUND_GAPS`]: the
@@ -27,14 +39,18 @@ impl QuadCover {
         let (mut order, rest): (Vec<usize>, Vec<usize>) =
             folds.iter().partition(|f| stuck.contains(f));
         order.extend(rest);
-        let mut candidates: Vec<usize> = order
-            .iter()
-            .flat_map(|&f| {
-                (3 * f..3 * f + 3)
-                    .flat_map(|h| mesh.outgoing(mesh.from(h)))
-                    .flat_map(|h| [h, mesh.next(h), mesh.prev(h)])
-                    .collect::<Vec<_>>()
-            })
+        self.gaps_of_corners(order.iter().flat_map(|&f| {
+            (3 * f..3 * f + 3)
+                .flat_map(|h| mesh.outgoing(mesh.from(h)))
+                .flat_map(|h| [h, mesh.next(h), mesh.prev(h)])
+                .collect::<Vec<_>>()
+        }))
+    }
+
+    /// The gaps the held corners among `corners` depend on, each once, in order of first
+    /// appearance, at most [`REROUND_GAPS`].
+    fn gaps_of_corners(&self, corners: impl Iterator<Item = usize>) -> Vec<usize> {
+        let mut candidates: Vec<usize> = corners
             .filter(|&c| self.global.corner_var[c] == cut::NONE)
             .flat_map(|c| self.global.corner_lin[c].0.iter().map(|x| x.0 as usize))
             .collect();
@@ -84,12 +100,6 @@ impl QuadCover {
         cancel: CancelCheck<'_>,
     ) -> Result<Vec<Rerounded>, ParamError> {
         let first = gaps.clone();
-        let error = |g: &[[f64; 2]]| -> f64 {
-            g.iter()
-                .zip(&local.gaps)
-                .map(|(a, b)| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2))
-                .sum()
-        };
         // The state with the fewest folds so far: a round may trade folds for fewer stuck
         // faces, which only later rounds can turn into fewer folds.
         let mut best = (
@@ -109,42 +119,20 @@ impl QuadCover {
             let candidates = self.gaps_near(mesh, &repair.stuck, &folds_now);
             // Stuck faces must become fewer; without stuck faces any candidate may help.
             let stuck_now = repair.stuck.len();
-            // The global map is affine in the gaps: two solves per candidate give the map of
-            // every step of it (to rounding, which is good enough for ranking; the kept map is
-            // solved for exactly).
-            let base = self.global_uv(mesh, local, gaps)?;
-            // ((stuck, folds, rounding error), gaps).
-            type Ranked = ((usize, usize, f64), Vec<[f64; 2]>);
-            let mut ranked: Vec<Ranked> = Vec::new();
-            for &k in &candidates {
-                let unit = |i: usize| -> Result<Vec<[f64; 2]>, ParamError> {
-                    let mut g = gaps.clone();
-                    g[k][i] += 1.0;
-                    let u = self.global_uv(mesh, local, &g)?;
-                    Ok(u.iter()
-                        .zip(&base)
-                        .map(|(a, b)| [a[0] - b[0], a[1] - b[1]])
-                        .collect())
-                };
-                let (d0, d1) = (unit(0)?, unit(1)?);
-                for d in self.lattice.steps() {
-                    let mut g = gaps.clone();
-                    g[k] = [g[k][0] + d[0], g[k][1] + d[1]];
+            let (base, ranked) =
+                self.ranked_steps(mesh, local, gaps, &candidates, |g, base, shift| {
                     let u: Vec<[f64; 2]> = (0..base.len())
                         .map(|c| {
-                            std::array::from_fn(|i| base[c][i] + d[0] * d0[c][i] + d[1] * d1[c][i])
+                            let d = shift(c);
+                            [base[c][0] + d[0], base[c][1] + d[1]]
                         })
                         .collect();
-                    let space = self.global.map_space(mesh.n_vertices(), &g);
+                    let space = self.global.map_space(mesh.n_vertices(), g);
                     let (stuck, folds) = untangle::count_stuck(mesh, &self.rots, &space, &u);
-                    if stuck < stuck_now || stuck_now == 0 {
-                        ranked.push(((stuck, folds, error(&g)), g));
-                    }
-                }
-            }
-            ranked.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap_or(std::cmp::Ordering::Equal));
+                    (stuck < stuck_now || stuck_now == 0).then_some((stuck, folds))
+                })?;
             let mut kept = false;
-            'tries: for (i, (_, g)) in ranked.into_iter().take(REROUND_TRIES).enumerate() {
+            'tries: for (i, g) in ranked.into_iter().take(REROUND_TRIES).enumerate() {
                 let fresh = self.global_uv(mesh, local, &g)?;
                 let space = self.global.map_space(mesh.n_vertices(), &g);
                 // The repaired map moved by the change of the global map; for the best
@@ -181,6 +169,214 @@ impl QuadCover {
             (_, *gaps, *uv, *repair) = best;
         }
         Ok(changed(&first, gaps))
+    }
+
+    /// Every change of one of the gaps `candidates` by one lattice step, ranked by `score(g,
+    /// base, shift)` (the stepped gaps, the map of `gaps`, and per corner the change of the map
+    /// the step makes; `None` drops the step), then by the rounding error. The map is affine in
+    /// the gaps, so two solves per gap give the map of every step of it (to rounding: good
+    /// enough for ranking; a kept map is solved for exactly). Returns the base map and the
+    /// stepped gaps, best first.
+    fn ranked_steps(
+        &self,
+        mesh: &TriMesh,
+        local: &LocalSolution,
+        gaps: &[[f64; 2]],
+        candidates: &[usize],
+        mut score: impl FnMut(
+            &[[f64; 2]],
+            &[[f64; 2]],
+            &dyn Fn(usize) -> [f64; 2],
+        ) -> Option<(usize, usize)>,
+    ) -> Result<RankedSteps, ParamError> {
+        let error = |g: &[[f64; 2]]| -> f64 {
+            g.iter()
+                .zip(&local.gaps)
+                .map(|(a, b)| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2))
+                .sum()
+        };
+        let base = self.global_uv(mesh, local, gaps)?;
+        let mut ranked: Vec<((usize, usize, f64), Gaps)> = Vec::new();
+        for &k in candidates {
+            let unit = |i: usize| -> Result<Vec<[f64; 2]>, ParamError> {
+                let mut g = gaps.to_vec();
+                g[k][i] += 1.0;
+                let u = self.global_uv(mesh, local, &g)?;
+                Ok(u.iter()
+                    .zip(&base)
+                    .map(|(a, b)| [a[0] - b[0], a[1] - b[1]])
+                    .collect())
+            };
+            let (d0, d1) = (unit(0)?, unit(1)?);
+            for d in self.lattice.steps() {
+                let mut g = gaps.to_vec();
+                g[k] = [g[k][0] + d[0], g[k][1] + d[1]];
+                let shift = |c: usize| -> [f64; 2] {
+                    std::array::from_fn(|i| d[0] * d0[c][i] + d[1] * d1[c][i])
+                };
+                if let Some((a, b)) = score(&g, &base, &shift) {
+                    let e = error(&g);
+                    ranked.push(((a, b, e), g));
+                }
+            }
+        }
+        ranked.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap_or(std::cmp::Ordering::Equal));
+        Ok((base, ranked.into_iter().map(|r| r.1).collect()))
+    }
+
+    /// Vertices the final, fold-free map still winds wrongly ([`untangle::miswound`]) after
+    /// the rewinding: a branch point rounded farther from where its ring wants it than the
+    /// rewinding can carry the ring. The gaps the branch points' own corners depend on are
+    /// moved by one lattice step, one at a time; the candidates are ranked by the repaired map
+    /// plus the change of the global map they give, within [`WINDING_RANK_RINGS`] rings of the
+    /// wrongly wound vertices (wrongly wound vertices, folds, rounding error), and the best
+    /// [`REROUND_TRIES`] are repaired from there (rewinding included). The first
+    /// that leaves no fold and fewer wrongly wound vertices is kept; rounds go on until none is
+    /// left or nothing helps. Runs only for a few such vertices ([`WINDING_MAX_VERTICES`]).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn reround_windings(
+        &self,
+        mesh: &TriMesh,
+        local: &LocalSolution,
+        cones: &[f64],
+        gaps: &mut Vec<[f64; 2]>,
+        uv: &mut Vec<[f64; 2]>,
+        repair: &mut untangle::Repair,
+        cancel: CancelCheck<'_>,
+    ) -> Result<(), ParamError> {
+        for _ in 0..WINDING_ROUNDS {
+            let wrong = untangle::miswound(mesh, uv, cones);
+            if wrong.is_empty()
+                || wrong.len() > WINDING_MAX_VERTICES
+                || !untangle::folded(uv).is_empty()
+                || cancel()
+            {
+                break;
+            }
+            // The gaps the wrongly wound branch points' own corners depend on.
+            let candidates = self.gaps_of_corners(wrong.iter().flat_map(|&v| mesh.outgoing(v)));
+            // Ranked by the windings and folds near them only: a scan of the whole mesh per
+            // candidate step cost igea (270 k faces) a second per round.
+            let near = untangle::vertices_within(mesh, &wrong, WINDING_RANK_RINGS);
+            let near_faces: Vec<usize> = {
+                let mut f: Vec<usize> = near
+                    .iter()
+                    .flat_map(|&v| mesh.outgoing(v).map(|h| mesh.face_of(h)))
+                    .collect();
+                f.sort_unstable();
+                f.dedup();
+                f
+            };
+            let (base, ranked) =
+                self.ranked_steps(mesh, local, gaps, &candidates, |_, _, shift| {
+                    // The repaired map moved by the step, where it matters.
+                    let at = |c: usize| -> [f64; 2] {
+                        let d = shift(c);
+                        [uv[c][0] + d[0], uv[c][1] + d[1]]
+                    };
+                    let wound = near
+                        .iter()
+                        .filter(|&&v| {
+                            !mesh.is_boundary_vertex(v)
+                                && !cones[v].is_nan()
+                                && !untangle::wound_by(untangle::fan_turn_at(mesh, v, at), cones[v])
+                        })
+                        .count();
+                    let folds = near_faces
+                        .iter()
+                        .filter(|&&f| {
+                            let q: [[f64; 2]; 3] = std::array::from_fn(|a| at(3 * f + a));
+                            let area = (q[1][0] - q[0][0]) * (q[2][1] - q[0][1])
+                                - (q[1][1] - q[0][1]) * (q[2][0] - q[0][0]);
+                            area.is_nan() || area <= 0.0
+                        })
+                        .count();
+                    Some((wound, folds))
+                })?;
+            let mut kept = false;
+            for g in ranked.into_iter().take(REROUND_TRIES) {
+                if cancel() {
+                    break;
+                }
+                let fresh = self.global_uv(mesh, local, &g)?;
+                let space = self.global.map_space(mesh.n_vertices(), &g);
+                let mut u: Vec<[f64; 2]> = (0..uv.len())
+                    .map(|c| std::array::from_fn(|k| uv[c][k] + fresh[c][k] - base[c][k]))
+                    .collect();
+                let mut r = self.untangle(mesh, local, &space, Some(cones), &mut u, cancel);
+                self.rewind_left(mesh, local, &space, cones, &mut u, &mut r, cancel);
+                if untangle::folded(&u).is_empty()
+                    && untangle::miswound(mesh, &u, cones).len() < wrong.len()
+                {
+                    *gaps = g;
+                    *uv = u;
+                    repair.rewound += r.rewound;
+                    kept = true;
+                    break;
+                }
+            }
+            if !kept {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    /// [`Self::reround_windings`] on a finished plain map `p` (no curves, no poles) solved on
+    /// `frames`: the local step again (the same on the same frames), the windings re-rounded,
+    /// and the report completed again when a gap moved.
+    pub(super) fn reround_windings_of(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[glam::DVec3; 2]],
+        p: Parameterization,
+        cancel: CancelCheck<'_>,
+    ) -> Result<Parameterization, ParamError> {
+        if p.flipped_faces > 0 || p.miswound.is_empty() || p.miswound.len() > WINDING_MAX_VERTICES {
+            return Ok(p);
+        }
+        let t = std::time::Instant::now();
+        let local = self.local_step(mesh, frames)?;
+        let cones = super::cones(mesh, &p.singularities);
+        let (mut gaps, mut uv) = (p.gaps.clone(), p.uv.clone());
+        let mut repair = untangle::Repair {
+            before: p.flipped_faces_before_repair,
+            ..Default::default()
+        };
+        self.reround_windings(
+            mesh,
+            &local,
+            &cones,
+            &mut gaps,
+            &mut uv,
+            &mut repair,
+            cancel,
+        )?;
+        if cancel() {
+            return Err(ParamError::Cancelled);
+        }
+        let spent = t.elapsed().as_secs_f64() * 1e3;
+        if gaps == p.gaps {
+            let mut p = p;
+            p.timings.repair_ms += spent;
+            return Ok(p);
+        }
+        // The gaps as the global step rounded them, before any re-rounding.
+        let mut rounded = p.gaps.clone();
+        for r in &p.rerounded_gaps {
+            rounded[r.path] = r.from;
+        }
+        let plain = super::PlainMap {
+            frames,
+            local: &local,
+            rounded: &rounded,
+            global_ms: 0.0,
+        };
+        let mut q = self.complete_plain(mesh, &plain, p.singularities.clone(), uv, gaps, &repair);
+        q.crowded_refinement = p.crowded_refinement.clone();
+        q.timings = p.timings;
+        q.timings.repair_ms += spent;
+        Ok(q)
     }
 
     /// The global step's map of the integer unknowns `w` under the curves: with geometric
@@ -332,7 +528,7 @@ fn values_near(mesh: &TriMesh, traced: &Traced, stuck: &[usize], folds: &[usize]
 }
 
 /// The gaps that differ between `first` and `now`, as the report lists them.
-fn changed(first: &[[f64; 2]], now: &[[f64; 2]]) -> Vec<Rerounded> {
+pub(super) fn changed(first: &[[f64; 2]], now: &[[f64; 2]]) -> Vec<Rerounded> {
     (0..now.len())
         .filter(|&k| now[k] != first[k])
         .map(|k| Rerounded {

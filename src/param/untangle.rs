@@ -241,6 +241,37 @@ pub(crate) fn fan_turn(mesh: &TriMesh, uv: &[[f64; 2]], v: usize) -> f64 {
 }
 
 /// [`fan_turn`] with the texture coordinates of corner c given by `at(c)`.
+/// Whether a fan turning by `turn` is wound by the cone angle `cone` (within π; false for NaN).
+pub(crate) fn wound_by(turn: f64, cone: f64) -> bool {
+    (turn - cone).abs() <= std::f64::consts::PI
+}
+
+/// [`fan_turn`] with the corners' positions given by `at`.
+pub(crate) fn fan_turn_at(mesh: &TriMesh, v: usize, at: impl Fn(usize) -> [f64; 2]) -> f64 {
+    fan_turn_with(mesh, v, at)
+}
+
+/// The vertices within `rings` rings of `seeds` (the seeds included), sorted.
+pub(crate) fn vertices_within(mesh: &TriMesh, seeds: &[usize], rings: usize) -> Vec<usize> {
+    let mut seen: std::collections::HashSet<usize> = seeds.iter().copied().collect();
+    let mut front = seeds.to_vec();
+    for _ in 0..rings {
+        let mut next = Vec::new();
+        for &v in &front {
+            for h in mesh.outgoing(v) {
+                let w = mesh.to(h);
+                if seen.insert(w) {
+                    next.push(w);
+                }
+            }
+        }
+        front = next;
+    }
+    let mut out: Vec<usize> = seen.into_iter().collect();
+    out.sort_unstable();
+    out
+}
+
 fn fan_turn_with(mesh: &TriMesh, v: usize, at: impl Fn(usize) -> [f64; 2]) -> f64 {
     mesh.outgoing(v)
         .map(|h| {
