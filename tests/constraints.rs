@@ -879,9 +879,10 @@ fn prisms_over_sharp_corners_do_not_fold() {
 /// An L-shaped prism with features at 40°, N = 6: read from the local step's curl*-free
 /// frames, its creases between the corner singularities were split into runs with jogs (14
 /// folded faces after the repair at about 3000 vertices, 133 patched places in the remesh,
-/// 2026-12-03); read from the field, each crease is one run and the map is fold-free. (Its
-/// triangle remesh is not yet manifold: two mis-wound vertices, positive but not locally
-/// injective, make one face twice; `docs/untangling.md`.)
+/// 2026-12-03); read from the field, each crease is one run and the map is fold-free. Two
+/// mis-wound vertices (positive but not locally injective) make one face twice, once per
+/// orientation: a pleat, which extraction drops (one patched place) so that the remesh is
+/// manifold (it was not before 2026-12-04; `docs/remesh.md`).
 #[test]
 fn an_l_shaped_prism_with_six_fold_symmetry_does_not_fold() {
     let polygon = [
@@ -901,7 +902,8 @@ fn an_l_shaped_prism_with_six_fold_symmetry_does_not_fold() {
     let base = Base::for_mesh(mesh.clone(), settings).unwrap();
     let (state, solved) = straight_features_unfolded(&base, 18, "L prism, N = 6");
     let (remesh, share, _) = remesh_along_curves(&base, &state, &solved, "L prism, N = 6");
-    assert_eq!(remesh.patched_places, 0);
+    remesh_checks::assert_manifold(&remesh, "L prism, N = 6");
+    assert!(remesh.patched_places <= 1, "{}", remesh.patched_places);
     assert!(share > 0.99, "{share}");
 }
 

@@ -789,7 +789,8 @@ impl QuadCover {
         // the kept try, once. In every try it cost spot ×16's re-solve after an edit 1.6 → 5.6 s;
         // this way 2.6 s, with as few mis-wound vertices left on the shared meshes
         // (docs/untangling.md).
-        let windings_in_tries = !first.rerounded_gaps.is_empty();
+        // (Never under curves: it moves gaps without the curves' equations.)
+        let windings_in_tries = curves.is_empty() && !first.rerounded_gaps.is_empty();
         let mut best = first;
         // The frames of the kept try, when a try is kept.
         let mut best_frames: Option<Vec<[DVec3; 2]>> = None;

@@ -332,7 +332,13 @@ impl QuadCover {
         p: Parameterization,
         cancel: CancelCheck<'_>,
     ) -> Result<Parameterization, ParamError> {
-        if p.flipped_faces > 0 || p.miswound.is_empty() || p.miswound.len() > WINDING_MAX_VERTICES {
+        // Not under curves (the gaps would move without their equations) nor with poles.
+        if !p.curves.is_empty()
+            || !p.poles.is_empty()
+            || p.flipped_faces > 0
+            || p.miswound.is_empty()
+            || p.miswound.len() > WINDING_MAX_VERTICES
+        {
             return Ok(p);
         }
         let t = std::time::Instant::now();
