@@ -100,6 +100,18 @@ pub fn fill_holes(
     filled
 }
 
+/// Per undirected edge (smaller vertex first) the number of faces using it.
+fn edge_uses(faces: &[Vec<u32>]) -> HashMap<(u32, u32), usize> {
+    let mut uses: HashMap<(u32, u32), usize> = HashMap::new();
+    for f in faces {
+        for k in 0..f.len() {
+            let (a, b) = (f[k], f[(k + 1) % f.len()]);
+            *uses.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    uses
+}
+
 /// A face and its reverse both present where one of their edges is in more than two faces and
 /// one of their vertices is in no other face: a pleat, the same grid cell traced on both sheets
 /// of a fold in the map (that vertex is a grid point inside the fold whose two traced edges
@@ -115,13 +127,7 @@ pub fn drop_pleats(faces: &mut Vec<Vec<u32>>) -> usize {
         let k = (0..f.len()).min_by_key(|&i| f[i]).unwrap_or(0);
         f[k..].iter().chain(&f[..k]).copied().collect()
     };
-    let mut edge_faces: HashMap<(u32, u32), usize> = HashMap::new();
-    for f in faces.iter() {
-        for k in 0..f.len() {
-            let (a, b) = (f[k], f[(k + 1) % f.len()]);
-            *edge_faces.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
+    let edge_faces = edge_uses(faces);
     let mut vertex_faces: HashMap<u32, usize> = HashMap::new();
     for f in faces.iter() {
         for &v in f {
@@ -168,13 +174,7 @@ pub fn drop_pleats(faces: &mut Vec<Vec<u32>>) -> usize {
 /// fold, left standing in a hole (often touching its rim at one vertex, so that the rim passes
 /// that vertex twice and [`fill_holes`] could not close it). Dropped; returns how many.
 pub fn drop_stray_faces(faces: &mut Vec<Vec<u32>>, on_input_boundary: &[bool]) -> usize {
-    let mut uses: HashMap<(u32, u32), usize> = HashMap::new();
-    for f in faces.iter() {
-        for k in 0..f.len() {
-            let (a, b) = (f[k], f[(k + 1) % f.len()]);
-            *uses.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
+    let uses = edge_uses(faces);
     let stray = |f: &Vec<u32>| {
         (0..f.len()).all(|k| {
             let (a, b) = (f[k], f[(k + 1) % f.len()]);

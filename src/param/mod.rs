@@ -787,7 +787,7 @@ impl QuadCover {
         // The re-rounding for windings ([`Self::reround_windings_of`]) runs in every try when
         // it moved a gap of the first map; otherwise (nothing it tried helped there) only on
         // the kept try, once. In every try it cost spot ×16's re-solve after an edit 1.6 → 5.6 s;
-        // this way 2.6 s, with as few mis-wound vertices left on the shared meshes
+        // this way 2.5 s, with as few mis-wound vertices left on the shared meshes
         // (docs/untangling.md).
         // (Never under curves: it moves gaps without the curves' equations.)
         let windings_in_tries = curves.is_empty() && !first.rerounded_gaps.is_empty();

@@ -16,10 +16,6 @@ const REROUND_GAPS: usize = 8;
 /// Curve values tried per round of the re-rounding under curves ([`values_near`]).
 const REROUND_VALUES: usize = 4;
 const REROUND_TRIES: usize = 3;
-/// Gaps per cut path.
-type Gaps = Vec<[f64; 2]>;
-/// [`QuadCover::ranked_steps`]: the base map and the stepped gaps, best first.
-type RankedSteps = (Vec<[f64; 2]>, Vec<Gaps>);
 const REROUND_ROUNDS: usize = 6;
 /// Rounds of [`QuadCover::reround_windings`].
 const WINDING_ROUNDS: usize = 4;
@@ -29,6 +25,11 @@ const WINDING_ROUNDS: usize = 4;
 const WINDING_MAX_VERTICES: usize = 12;
 /// Rings around the wrongly wound vertices over which candidates are ranked.
 const WINDING_RANK_RINGS: usize = 4;
+
+/// Gaps per cut path.
+type Gaps = Vec<[f64; 2]>;
+/// [`QuadCover::ranked_steps`]: the base map and the stepped gaps, best first.
+type RankedSteps = (Vec<[f64; 2]>, Vec<Gaps>);
 
 impl QuadCover {
     /// The gaps the held corners near the folded faces depend on, at most [`REROUND_GAPS`]: the
@@ -258,15 +259,7 @@ impl QuadCover {
             // Ranked by the windings and folds near them only: a scan of the whole mesh per
             // candidate step cost igea (270 k faces) a second per round.
             let near = untangle::vertices_within(mesh, &wrong, WINDING_RANK_RINGS);
-            let near_faces: Vec<usize> = {
-                let mut f: Vec<usize> = near
-                    .iter()
-                    .flat_map(|&v| mesh.outgoing(v).map(|h| mesh.face_of(h)))
-                    .collect();
-                f.sort_unstable();
-                f.dedup();
-                f
-            };
+            let near_faces = untangle::faces_around(mesh, &near);
             let (base, ranked) =
                 self.ranked_steps(mesh, local, gaps, &candidates, |_, _, shift| {
                     // The repaired map moved by the step, where it matters.
@@ -279,7 +272,10 @@ impl QuadCover {
                         .filter(|&&v| {
                             !mesh.is_boundary_vertex(v)
                                 && !cones[v].is_nan()
-                                && !untangle::wound_by(untangle::fan_turn_at(mesh, v, at), cones[v])
+                                && !untangle::wound_by(
+                                    untangle::fan_turn_with(mesh, v, at),
+                                    cones[v],
+                                )
                         })
                         .count();
                     let folds = near_faces

@@ -240,15 +240,9 @@ pub(crate) fn fan_turn(mesh: &TriMesh, uv: &[[f64; 2]], v: usize) -> f64 {
     fan_turn_with(mesh, v, |c| uv[c])
 }
 
-/// [`fan_turn`] with the texture coordinates of corner c given by `at(c)`.
 /// Whether a fan turning by `turn` is wound by the cone angle `cone` (within π; false for NaN).
 pub(crate) fn wound_by(turn: f64, cone: f64) -> bool {
     (turn - cone).abs() <= std::f64::consts::PI
-}
-
-/// [`fan_turn`] with the corners' positions given by `at`.
-pub(crate) fn fan_turn_at(mesh: &TriMesh, v: usize, at: impl Fn(usize) -> [f64; 2]) -> f64 {
-    fan_turn_with(mesh, v, at)
 }
 
 /// The vertices within `rings` rings of `seeds` (the seeds included), sorted.
@@ -272,7 +266,8 @@ pub(crate) fn vertices_within(mesh: &TriMesh, seeds: &[usize], rings: usize) -> 
     out
 }
 
-fn fan_turn_with(mesh: &TriMesh, v: usize, at: impl Fn(usize) -> [f64; 2]) -> f64 {
+/// [`fan_turn`] with the texture coordinates of corner c given by `at(c)`.
+pub(crate) fn fan_turn_with(mesh: &TriMesh, v: usize, at: impl Fn(usize) -> [f64; 2]) -> f64 {
     mesh.outgoing(v)
         .map(|h| {
             let (a, b, c) = (at(h), at(mesh.next(h)), at(mesh.prev(h)));
@@ -299,7 +294,7 @@ fn number_unknowns(space: &MapSpace, free: &[usize]) -> (Vec<[u32; 2]>, usize) {
 }
 
 /// The faces around the vertices `free`, sorted.
-fn faces_around(mesh: &TriMesh, free: &[usize]) -> Vec<usize> {
+pub(crate) fn faces_around(mesh: &TriMesh, free: &[usize]) -> Vec<usize> {
     let mut faces: Vec<usize> = free
         .iter()
         .flat_map(|&v| mesh.outgoing(v).map(|h| mesh.face_of(h)))
@@ -354,9 +349,7 @@ pub(crate) fn miswound(mesh: &TriMesh, uv: &[[f64; 2]], cones: &[f64]) -> Vec<us
     (0..mesh.n_vertices())
         .filter(|&v| {
             let cone = cones[v];
-            !mesh.is_boundary_vertex(v)
-                && !cone.is_nan()
-                && !((fan_turn(mesh, uv, v) - cone).abs() <= std::f64::consts::PI)
+            !mesh.is_boundary_vertex(v) && !cone.is_nan() && !wound_by(fan_turn(mesh, uv, v), cone)
         })
         .collect()
 }

@@ -30,7 +30,7 @@ use glam::DVec3;
 
 use super::{
     MapSpace, NONE, corner_uv, faces_around, fan_turn, fan_turn_with, jacobian, jacobian_terms,
-    number_unknowns, reference, unknowns_of,
+    number_unknowns, reference, unknowns_of, wound_by,
 };
 use crate::mesh::TriMesh;
 use crate::param::rot::Rots;
@@ -96,7 +96,7 @@ pub(crate) fn wrongly_wound(
             !mesh.is_boundary_vertex(v)
                 && !cones[v].is_nan()
                 && space.var[mesh.vertex_halfedge(v)] == NONE
-                && !((fan_turn(mesh, uv, v) - cones[v]).abs() <= std::f64::consts::PI)
+                && !wound_by(fan_turn(mesh, uv, v), cones[v])
         })
         .collect()
 }
@@ -116,9 +116,7 @@ pub(crate) fn rewind(
     held: Vec<usize>,
     round: &Round,
 ) -> Vec<usize> {
-    let wrong = |uv: &[[f64; 2]], v: usize| {
-        !((fan_turn(mesh, uv, v) - cones[v]).abs() <= std::f64::consts::PI)
-    };
+    let wrong = |uv: &[[f64; 2]], v: usize| !wound_by(fan_turn(mesh, uv, v), cones[v]);
     let mut done = Vec::new();
     for b in held {
         // An earlier one's region may have rewound it already.
@@ -180,7 +178,7 @@ fn trial_of(
     centers: &[usize],
     others: bool,
 ) -> Trial {
-    let ok = |v: usize, t: f64| (t - cones[v]).abs() <= std::f64::consts::PI;
+    let ok = |v: usize, t: f64| wound_by(t, cones[v]);
     // The trial map without copying the map: at 1.1 M faces a copy per try took seconds.
     let moved: HashMap<usize, [f64; 2]> = y.iter().copied().collect();
     let at = |c: usize| match moved.get(&mesh.from(c)) {
