@@ -360,12 +360,39 @@ pub(crate) fn uv_area(uv: &[[f64; 2]], f: usize) -> f64 {
     0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
 }
 
-/// Faces whose texture triangle has non-positive (or undefined) signed area.
+/// Faces whose texture triangle has non-positive (or undefined) signed area, or an area the
+/// coordinates' rounding could give either sign: its height under 1e-9 of its corners'
+/// magnitude, the tolerance [`stuck`] reads two held corners on one point by. Two branch
+/// points rounded onto one lattice point (max-planck, N = 6, 1500 vertices) collapse the edge
+/// between them; its two faces came out with an area of +4e-15, counted as unfolded, and the
+/// remesh patched the hole they left.
 pub(crate) fn folded(uv: &[[f64; 2]]) -> Vec<usize> {
     (0..uv.len() / 3)
         .into_par_iter()
-        .filter(|&f| !(uv_area(uv, f) > 0.0))
+        .filter(|&f| !positive(uv, f))
         .collect()
+}
+
+/// Whether face f's texture triangle is positive and not degenerate (see [`folded`]).
+pub(crate) fn positive(uv: &[[f64; 2]], f: usize) -> bool {
+    uv_area(uv, f) > degenerate_area(uv, f)
+}
+
+/// The area below which face f's texture triangle is degenerate: half its longest edge times
+/// 1e-9 of its corners' largest coordinate (plus one).
+fn degenerate_area(uv: &[[f64; 2]], f: usize) -> f64 {
+    let c = [uv[3 * f], uv[3 * f + 1], uv[3 * f + 2]];
+    let scale = 1.0
+        + c.iter()
+            .map(|p| p[0].abs().max(p[1].abs()))
+            .fold(0.0, f64::max);
+    let longest = (0..3)
+        .map(|k| {
+            let (a, b) = (c[k], c[(k + 1) % 3]);
+            (b[0] - a[0]).hypot(b[1] - a[1])
+        })
+        .fold(0.0, f64::max);
+    0.5 * 1e-9 * scale * longest
 }
 
 /// Per face: gradients of the barycentric coordinates on the reference triangle, and weight.
@@ -1047,7 +1074,7 @@ fn fan_start(
     let mut held: Vec<usize> = Vec::new();
     for face in faces {
         let f = face.corners[0] / 3;
-        if uv_area(uv, f) > 0.0 {
+        if positive(uv, f) {
             continue;
         }
         for a in 0..3 {
@@ -1299,7 +1326,7 @@ fn solve_region(
     let mut faces = faces_around(mesh, free);
     // A stuck face's determinant does not depend on the unknowns; its barrier would only
     // swamp the others.
-    faces.retain(|&f| uv_area(uv, f) > 0.0 || !stuck(mesh, rots, space, uv, f));
+    faces.retain(|&f| positive(uv, f) || !stuck(mesh, rots, space, uv, f));
     let rf: Vec<RegionFace> = faces
         .iter()
         .map(|&f| RegionFace {
