@@ -3,6 +3,7 @@
 use std::f64::consts::TAU;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::mesh::TriMesh;
 
@@ -12,6 +13,7 @@ use super::rot::{Lattice, Rots, apply};
 /// Per face: (signed Jacobian determinant, σ_max, σ_min) of the map surface → texture.
 pub(crate) fn jacobians(mesh: &TriMesh, uv: &[[f64; 2]]) -> Vec<(f64, f64, f64)> {
     (0..mesh.n_faces())
+        .into_par_iter()
         .map(|f| {
             let (e1, e2) = mesh.face_basis(f);
             let [a, b, c] = mesh.face(f).map(|v| mesh.position(v));

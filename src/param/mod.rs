@@ -31,6 +31,7 @@ mod integer;
 mod local;
 mod metrics;
 mod poles;
+mod relax_conformal;
 mod reround;
 mod rot;
 mod system;
@@ -297,6 +298,9 @@ pub struct QuadCover {
     opened: std::sync::Mutex<Option<std::sync::Arc<Opened>>>,
     /// The mesh's angle defects, once they are needed.
     defects: std::sync::OnceLock<std::sync::Arc<Vec<f64>>>,
+    /// Whether the kept map gets the conformal relaxation ([`Self::relax_conformal_of`]): not
+    /// on a mesh opened at poles, whose stars' quads it would fold once closed.
+    relax_last: bool,
 }
 
 /// The opened solver and the treated poles' indices.
@@ -536,6 +540,7 @@ impl QuadCover {
             local,
             global,
             opts,
+            relax_last: true,
             timings: StageTimings {
                 cut_ms,
                 local_ms,
@@ -603,6 +608,7 @@ impl QuadCover {
         // The opened stars' rims are boundary there, but the poles' positions depend on the
         // gaps of loops ending on them: all on the branch points' lattice.
         qc.gap_lattices = vec![qc.lattice; qc.gap_lattices.len()];
+        qc.relax_last = false;
         let o = std::sync::Arc::new(Opened {
             poles: treat,
             untreated,
@@ -778,7 +784,7 @@ impl QuadCover {
             || !first.poles.is_empty()
             || done(&first)
         {
-            return Ok(first);
+            return self.relax_conformal_of(mesh, frames, first, cancel);
         }
         // Tries on grids made finer around crowded singularities ([`crowded::LADDER`]), while
         // the best map so far keeps something; the best kept (a try that fails, e.g. curves
@@ -822,12 +828,11 @@ impl QuadCover {
             }
         }
         best.timings.repair_ms += spent;
-        match best_frames {
-            Some(refined) if curves.is_empty() && !windings_in_tries => {
-                self.reround_windings_of(mesh, &refined, best, cancel)
-            }
-            _ => Ok(best),
+        let kept_frames = best_frames.as_deref().unwrap_or(frames);
+        if best_frames.is_some() && curves.is_empty() && !windings_in_tries {
+            best = self.reround_windings_of(mesh, kept_frames, best, cancel)?;
         }
+        self.relax_conformal_of(mesh, kept_frames, best, cancel)
     }
 
     /// One solve on given frames: under curves [`Self::solve_curves`], with poles alg. 6 on
