@@ -301,6 +301,8 @@ pub struct QuadCover {
     /// Whether the kept map gets the conformal relaxation ([`Self::relax_conformal_of`]): not
     /// on a mesh opened at poles, whose stars' quads it would fold once closed.
     relax_last: bool,
+    /// What the last plain solve computed that the relaxation needs again.
+    last_solve: std::sync::Mutex<Option<relax_conformal::LastSolve>>,
 }
 
 /// The opened solver and the treated poles' indices.
@@ -541,6 +543,7 @@ impl QuadCover {
             global,
             opts,
             relax_last: true,
+            last_solve: std::sync::Mutex::new(None),
             timings: StageTimings {
                 cut_ms,
                 local_ms,
@@ -770,6 +773,7 @@ impl QuadCover {
         preview: PreviewSink<'_>,
     ) -> Result<Parameterization, ParamError> {
         let mut first = self.solve_once(mesh, frames, curves, cancel, preview)?;
+        let mut best_last = self.take_last_solve();
         if curves.is_empty() && first.poles.is_empty() && !self.opts.no_untangle {
             first = self.reround_windings_of(mesh, frames, first, cancel)?;
         }
@@ -784,7 +788,7 @@ impl QuadCover {
             || !first.poles.is_empty()
             || done(&first)
         {
-            return self.relax_conformal_of(mesh, frames, first, cancel);
+            return self.relax_conformal_of(mesh, frames, first, best_last, cancel);
         }
         // Tries on grids made finer around crowded singularities ([`crowded::LADDER`]), while
         // the best map so far keeps something; the best kept (a try that fails, e.g. curves
@@ -815,6 +819,7 @@ impl QuadCover {
                 Err(ParamError::Cancelled) => return Err(ParamError::Cancelled),
                 Err(_) => continue,
             };
+            let next_last = self.take_last_solve();
             if windings_in_tries {
                 next = self.reround_windings_of(mesh, &refined, next, cancel)?;
             }
@@ -823,6 +828,7 @@ impl QuadCover {
                 next.crowded_refinement = Some(refinement);
                 best = next;
                 best_frames = Some(refined);
+                best_last = next_last;
             } else {
                 spent += next.timings.repair_ms;
             }
@@ -832,7 +838,7 @@ impl QuadCover {
         if best_frames.is_some() && curves.is_empty() && !windings_in_tries {
             best = self.reround_windings_of(mesh, kept_frames, best, cancel)?;
         }
-        self.relax_conformal_of(mesh, kept_frames, best, cancel)
+        self.relax_conformal_of(mesh, kept_frames, best, best_last, cancel)
     }
 
     /// One solve on given frames: under curves [`Self::solve_curves`], with poles alg. 6 on
@@ -881,6 +887,7 @@ impl QuadCover {
         if !self.opts.no_untangle && !untangle::folded(&uv).is_empty() {
             preview(&uv);
         }
+        let global = (self.relax_last && !self.opts.no_untangle).then(|| uv.clone());
         let cones = cones(mesh, &singularities);
         let mut repair = self.untangle(mesh, &local, &space, Some(&cones), &mut uv, cancel);
         let rounded = gaps.clone();
@@ -901,7 +908,11 @@ impl QuadCover {
             rounded: &rounded,
             global_ms,
         };
-        Ok(self.complete_plain(mesh, &plain, singularities, uv, gaps, &repair))
+        let p = self.complete_plain(mesh, &plain, singularities, uv, gaps, &repair);
+        if let Some(global) = global {
+            self.keep_last_solve(frames, local, (rounded, global));
+        }
+        Ok(p)
     }
 
     /// [`Self::complete`] for a map without curves and poles, with the gaps the re-roundings
