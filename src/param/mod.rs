@@ -32,6 +32,7 @@ mod local;
 mod metrics;
 mod poles;
 mod relax_conformal;
+use relax_conformal::LastSolve;
 mod reround;
 mod rot;
 mod system;
@@ -301,8 +302,6 @@ pub struct QuadCover {
     /// Whether the kept map gets the conformal relaxation ([`Self::relax_conformal_of`]): not
     /// on a mesh opened at poles, whose stars' quads it would fold once closed.
     relax_last: bool,
-    /// What the last plain solve computed that the relaxation needs again.
-    last_solve: std::sync::Mutex<Option<relax_conformal::LastSolve>>,
 }
 
 /// The opened solver and the treated poles' indices.
@@ -543,7 +542,6 @@ impl QuadCover {
             global,
             opts,
             relax_last: true,
-            last_solve: std::sync::Mutex::new(None),
             timings: StageTimings {
                 cut_ms,
                 local_ms,
@@ -772,8 +770,7 @@ impl QuadCover {
         cancel: CancelCheck<'_>,
         preview: PreviewSink<'_>,
     ) -> Result<Parameterization, ParamError> {
-        let mut first = self.solve_once(mesh, frames, curves, cancel, preview)?;
-        let mut best_last = self.take_last_solve();
+        let (mut first, mut best_last) = self.solve_once(mesh, frames, curves, cancel, preview)?;
         if curves.is_empty() && first.poles.is_empty() && !self.opts.no_untangle {
             first = self.reround_windings_of(mesh, frames, first, cancel)?;
         }
@@ -814,12 +811,12 @@ impl QuadCover {
             else {
                 continue;
             };
-            let mut next = match self.solve_once(mesh, &refined, curves, cancel, &no_preview) {
-                Ok(p) => p,
-                Err(ParamError::Cancelled) => return Err(ParamError::Cancelled),
-                Err(_) => continue,
-            };
-            let next_last = self.take_last_solve();
+            let (mut next, next_last) =
+                match self.solve_once(mesh, &refined, curves, cancel, &no_preview) {
+                    Ok(solved) => solved,
+                    Err(ParamError::Cancelled) => return Err(ParamError::Cancelled),
+                    Err(_) => continue,
+                };
             if windings_in_tries {
                 next = self.reround_windings_of(mesh, &refined, next, cancel)?;
             }
@@ -842,7 +839,7 @@ impl QuadCover {
     }
 
     /// One solve on given frames: under curves [`Self::solve_curves`], with poles alg. 6 on
-    /// the opened mesh, else [`Self::solve_on`].
+    /// the opened mesh, else [`Self::solve_on`] (with what the last step needs again).
     fn solve_once(
         &self,
         mesh: &TriMesh,
@@ -850,9 +847,12 @@ impl QuadCover {
         curves: &[ConstraintCurve],
         cancel: CancelCheck<'_>,
         preview: PreviewSink<'_>,
-    ) -> Result<Parameterization, ParamError> {
+    ) -> Result<(Parameterization, Option<LastSolve>), ParamError> {
         if !curves.is_empty() {
-            return self.solve_curves(mesh, frames, curves, cancel, preview);
+            return Ok((
+                self.solve_curves(mesh, frames, curves, cancel, preview)?,
+                None,
+            ));
         }
         self.check_frames(mesh, frames)?;
         // One index per vertex, for the poles and the report alike; the local step beside it
@@ -863,7 +863,7 @@ impl QuadCover {
         );
         if let Some((o, indices)) = self.opened(mesh, &singularities, &[])? {
             let p = o.qc.solve_until(&o.mesh, frames, cancel)?;
-            return Ok(self.close(mesh, singularities, &o, &indices, p));
+            return Ok((self.close(mesh, singularities, &o, &indices, p), None));
         }
         self.solve_on(mesh, frames, singularities, local?, cancel, preview)
     }
@@ -878,7 +878,7 @@ impl QuadCover {
         local: LocalSolution,
         cancel: CancelCheck<'_>,
         preview: PreviewSink<'_>,
-    ) -> Result<Parameterization, ParamError> {
+    ) -> Result<(Parameterization, Option<LastSolve>), ParamError> {
         let t = Instant::now();
         let gaps = self.round_gaps(mesh, &local)?;
         let mut uv = self.global_uv(mesh, &local, &gaps)?;
@@ -909,10 +909,11 @@ impl QuadCover {
             global_ms,
         };
         let p = self.complete_plain(mesh, &plain, singularities, uv, gaps, &repair);
-        if let Some(global) = global {
-            self.keep_last_solve(frames, local, (rounded, global));
-        }
-        Ok(p)
+        let last = global.map(|global| LastSolve {
+            local,
+            global: (rounded, global),
+        });
+        Ok((p, last))
     }
 
     /// [`Self::complete`] for a map without curves and poles, with the gaps the re-roundings

@@ -10,51 +10,21 @@
 use glam::DVec3;
 
 use super::{
-    CancelCheck, Distortion, ParamError, Parameterization, QuadCover, cones, metrics, untangle,
+    CancelCheck, Distortion, LocalSolution, ParamError, Parameterization, QuadCover, cones,
+    metrics, untangle,
 };
 use crate::mesh::TriMesh;
 
-use super::LocalSolution;
-
 /// What [`QuadCover::solve_on`] computed that the relaxation needs again, so that it does not
-/// solve the local and global steps a second time (at 1.1 M faces 1.1 s): the frames it
-/// solved (by address and length, checked again: the kept try's), its local step, and the
-/// global step's map with the gaps it was solved on. `solve_previewing` takes it after each
-/// solve and holds the kept map's.
+/// solve the local and global steps a second time (at 1.1 M faces 1.1 s): its local step and
+/// the global step's map with the gaps it was solved on. `solve_previewing` keeps the kept
+/// try's.
 pub(super) struct LastSolve {
-    frames: (usize, usize),
-    local: LocalSolution,
-    global: (Vec<[f64; 2]>, Vec<[f64; 2]>),
-}
-
-fn key(frames: &[[DVec3; 2]]) -> (usize, usize) {
-    (frames.as_ptr() as usize, frames.len())
+    pub(super) local: LocalSolution,
+    pub(super) global: (Vec<[f64; 2]>, Vec<[f64; 2]>),
 }
 
 impl QuadCover {
-    /// What the last plain solve left ([`Self::keep_last_solve`]), taken.
-    pub(super) fn take_last_solve(&self) -> Option<LastSolve> {
-        self.last_solve
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .take()
-    }
-
-    /// Keeps what the last plain solve computed ([`LastSolve`]); `global` is (gaps, map).
-    pub(super) fn keep_last_solve(
-        &self,
-        frames: &[[DVec3; 2]],
-        local: LocalSolution,
-        global: (Vec<[f64; 2]>, Vec<[f64; 2]>),
-    ) {
-        let mut last = self.last_solve.lock().unwrap_or_else(|e| e.into_inner());
-        *last = Some(LastSolve {
-            frames: key(frames),
-            local,
-            global,
-        });
-    }
-
     /// `p` (solved on `frames`) with its repaired places relaxed; `p` itself when the repair
     /// did nothing or is off, under curves, with poles and on the mesh opened at them (their
     /// maps hold more than the global step's unknowns), or when something is left folded.
@@ -66,7 +36,6 @@ impl QuadCover {
         last: Option<LastSolve>,
         cancel: CancelCheck<'_>,
     ) -> Result<Parameterization, ParamError> {
-        let last = last.filter(|l| l.frames == key(frames));
         if self.opts.no_untangle
             || !self.relax_last
             || !p.curves.is_empty()
@@ -82,7 +51,6 @@ impl QuadCover {
             Some(LastSolve {
                 local,
                 global: (gaps, global),
-                ..
             }) if gaps == p.gaps => (local, global),
             Some(LastSolve { local, .. }) => {
                 let global = self.global_uv(mesh, &local, &p.gaps)?;
@@ -97,7 +65,7 @@ impl QuadCover {
         let space = self.global.map_space(mesh.n_vertices(), &p.gaps);
         let cones = cones(mesh, &p.singularities);
         let mut uv = p.uv.clone();
-        untangle::relax_conformal(
+        let relaxed = untangle::relax_conformal(
             mesh,
             &self.rots,
             &space,
@@ -106,13 +74,14 @@ impl QuadCover {
             &cones,
             &global,
             &mut uv,
+            p.miswound.len(),
             cancel,
         );
         if cancel() {
             return Err(ParamError::Cancelled);
         }
         // Only free unknowns moved: the singularities, gaps, cut and curl are as they were.
-        if uv != p.uv {
+        if let Some(miswound) = relaxed {
             let trans: Vec<(u8, [f64; 2])> = p
                 .transitions
                 .iter()
@@ -127,7 +96,7 @@ impl QuadCover {
                 p99: quality.conformal_p99,
             };
             p.area_distortion = quality.area_distortion;
-            p.miswound = untangle::miswound(mesh, &uv, &cones);
+            p.miswound = miswound;
             p.uv = uv;
         }
         p.timings.repair_ms += t.elapsed().as_secs_f64() * 1e3;

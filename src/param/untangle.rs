@@ -890,17 +890,17 @@ fn unfold(
     );
     seeds.sort_unstable();
     seeds.dedup();
+    let at = Regions {
+        mesh,
+        rots,
+        space,
+        frames: disk,
+        mean_area,
+        cones,
+    };
     let solve_around =
         |uv: &mut [[f64; 2]], seeds: &[usize], rings: usize, relax: bool, keep: bool| {
-            let at = Regions {
-                mesh,
-                rots,
-                space,
-                frames: disk,
-                mean_area,
-                cones,
-            };
-            at.solve(uv, seeds, rings, relax, keep, cancel);
+            at.solve(uv, seeds, rings, relax, keep, cancel)
         };
     // Growing regions around the folds left.
     let grow = |uv: &mut [[f64; 2]], mut bad: Vec<usize>, keep: bool| -> Vec<usize> {
@@ -998,7 +998,9 @@ impl Regions<'_> {
 /// conformal distortion the report measures (72 cases: p99 more than 5 % above the global
 /// step's map in 18 → 2, docs/untangling.md). Seeding every changed face instead made
 /// regions past [`MAX_REGION`], which are not solved. Undone if a free vertex ends up wound
-/// wrongly (the line search checks faces, not windings).
+/// wrongly (the line search checks faces, not windings): `miswound_now` is how many are in
+/// `uv` now. `uv` has no fold. Returns the
+/// mis-wound vertices ([`miswound`]) of the relaxed map when `uv` changed.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn relax_conformal(
     mesh: &TriMesh,
@@ -1009,8 +1011,9 @@ pub(crate) fn relax_conformal(
     cones: &[f64],
     global: &[[f64; 2]],
     uv: &mut [[f64; 2]],
+    miswound_now: usize,
     cancel: super::CancelCheck<'_>,
-) {
+) -> Option<Vec<usize>> {
     // (a re-rounded map is the global step's plus the repair's offset: equal up to rounding
     // where the repair did nothing)
     let moved = |c: usize| {
@@ -1022,8 +1025,8 @@ pub(crate) fn relax_conformal(
     let seeds: Vec<usize> = (0..mesh.n_faces())
         .filter(|&f| (0..3).any(|a| moved(3 * f + a)) && !(now[f].1 <= level * now[f].2))
         .collect();
-    if seeds.is_empty() || !folded(uv).is_empty() || cancel() {
-        return;
+    if seeds.is_empty() || cancel() {
+        return None;
     }
     let reference = references(mesh, space, disk, guide);
     let frames = conformal_frames(mesh, &reference);
@@ -1035,12 +1038,15 @@ pub(crate) fn relax_conformal(
         mean_area: mean_target_area(mesh, &reference),
         cones,
     };
-    let before = miswound(mesh, uv, cones).len();
+    let before = miswound_now;
     let start = uv.to_vec();
     at.solve(uv, &seeds, CONFORMAL_RINGS, true, true, cancel);
-    if miswound(mesh, uv, cones).len() > before {
+    let after = miswound(mesh, uv, cones);
+    if after.len() > before {
         uv.copy_from_slice(&start);
+        return None;
     }
+    (uv != start.as_slice()).then_some(after)
 }
 
 /// Whether writing the unknowns `update` into `uv` would leave a held vertex next to them
