@@ -14,38 +14,57 @@ use super::rot::{Lattice, Rots, apply};
 pub(crate) fn jacobians(mesh: &TriMesh, uv: &[[f64; 2]]) -> Vec<(f64, f64, f64)> {
     (0..mesh.n_faces())
         .into_par_iter()
-        .map(|f| {
-            let (e1, e2) = mesh.face_basis(f);
-            let [a, b, c] = mesh.face(f).map(|v| mesh.position(v));
-            let (p1, p2) = (b - a, c - a);
-            let (x1, y1, x2, y2) = (p1.dot(e1), p1.dot(e2), p2.dot(e1), p2.dot(e2));
-            let det_p = x1 * y2 - x2 * y1;
-            let q1 = [
-                uv[3 * f + 1][0] - uv[3 * f][0],
-                uv[3 * f + 1][1] - uv[3 * f][1],
-            ];
-            let q2 = [
-                uv[3 * f + 2][0] - uv[3 * f][0],
-                uv[3 * f + 2][1] - uv[3 * f][1],
-            ];
-            // J = Q P^{-1}, P^{-1} = [[y2, -x2], [-y1, x1]] / det_p
-            let j = [
-                (q1[0] * y2 - q2[0] * y1) / det_p,
-                (-q1[0] * x2 + q2[0] * x1) / det_p,
-                (q1[1] * y2 - q2[1] * y1) / det_p,
-                (-q1[1] * x2 + q2[1] * x1) / det_p,
-            ];
-            let det = j[0] * j[3] - j[1] * j[2];
-            let (e, ff, g, h) = (
-                (j[0] + j[3]) / 2.0,
-                (j[0] - j[3]) / 2.0,
-                (j[2] + j[1]) / 2.0,
-                (j[2] - j[1]) / 2.0,
-            );
-            let (q, r) = (e.hypot(h), ff.hypot(g));
-            (det, q + r, (q - r).abs())
-        })
+        .map(|f| jacobian(mesh, uv, f))
         .collect()
+}
+
+/// Face f's (signed Jacobian determinant, σ_max, σ_min) of the map surface → texture.
+pub(crate) fn jacobian(mesh: &TriMesh, uv: &[[f64; 2]], f: usize) -> (f64, f64, f64) {
+    let (e1, e2) = mesh.face_basis(f);
+    let [a, b, c] = mesh.face(f).map(|v| mesh.position(v));
+    let (p1, p2) = (b - a, c - a);
+    let (x1, y1, x2, y2) = (p1.dot(e1), p1.dot(e2), p2.dot(e1), p2.dot(e2));
+    let det_p = x1 * y2 - x2 * y1;
+    let q1 = [
+        uv[3 * f + 1][0] - uv[3 * f][0],
+        uv[3 * f + 1][1] - uv[3 * f][1],
+    ];
+    let q2 = [
+        uv[3 * f + 2][0] - uv[3 * f][0],
+        uv[3 * f + 2][1] - uv[3 * f][1],
+    ];
+    // J = Q P^{-1}, P^{-1} = [[y2, -x2], [-y1, x1]] / det_p
+    let j = [
+        (q1[0] * y2 - q2[0] * y1) / det_p,
+        (-q1[0] * x2 + q2[0] * x1) / det_p,
+        (q1[1] * y2 - q2[1] * y1) / det_p,
+        (-q1[1] * x2 + q2[1] * x1) / det_p,
+    ];
+    let det = j[0] * j[3] - j[1] * j[2];
+    let (e, ff, g, h) = (
+        (j[0] + j[3]) / 2.0,
+        (j[0] - j[3]) / 2.0,
+        (j[2] + j[1]) / 2.0,
+        (j[2] - j[1]) / 2.0,
+    );
+    let (q, r) = (e.hypot(h), ff.hypot(g));
+    (det, q + r, (q - r).abs())
+}
+
+/// The 99th percentile over faces of the conformal distortion σ_max/σ_min over the valid
+/// faces (det J > 0, σ_min > 0), as [`quality`] reports it: the value at index ⌊0.99·n⌋ of
+/// the sorted values, found by selection (at 1.1 M faces a sort took 80 ms).
+pub(crate) fn conformal_p99(j: &[(f64, f64, f64)]) -> f64 {
+    let mut conf: Vec<f64> = j
+        .par_iter()
+        .filter(|x| x.0 > 0.0 && x.2 > 0.0)
+        .map(|&(_, s1, s2)| s1 / s2)
+        .collect();
+    if conf.is_empty() {
+        return 1.0;
+    }
+    let k = ((conf.len() as f64 * 0.99) as usize).min(conf.len() - 1);
+    *conf.select_nth_unstable_by(k, f64::total_cmp).1
 }
 
 const CAP: f64 = 1000.0;
@@ -63,7 +82,10 @@ pub(crate) struct Quality {
 /// Per-face values enter the means capped at 1000 (near-degenerate images would dominate).
 pub(crate) fn quality(mesh: &TriMesh, uv: &[[f64; 2]]) -> Quality {
     let j = jacobians(mesh, uv);
-    let areas: Vec<f64> = (0..mesh.n_faces()).map(|f| mesh.face_area(f)).collect();
+    let areas: Vec<f64> = (0..mesh.n_faces())
+        .into_par_iter()
+        .map(|f| mesh.face_area(f))
+        .collect();
     let total: f64 = areas.iter().sum::<f64>().max(f64::MIN_POSITIVE);
     // Folds by the texture triangle's own orientation: a zero-area input face with a proper
     // image is not one.
@@ -77,12 +99,6 @@ pub(crate) fn quality(mesh: &TriMesh, uv: &[[f64; 2]]) -> Quality {
         .map(|x| x.0)
         .sum::<f64>()
         .max(f64::MIN_POSITIVE);
-    let conf: Vec<f64> = j
-        .iter()
-        .zip(&valid)
-        .filter(|x| *x.1)
-        .map(|(&(_, s1, s2), _)| s1 / s2)
-        .collect();
     let conformal_mean = j
         .iter()
         .zip(&areas)
@@ -91,12 +107,7 @@ pub(crate) fn quality(mesh: &TriMesh, uv: &[[f64; 2]]) -> Quality {
         .map(|((x, a), _)| (x.1 / x.2).min(CAP) * a)
         .sum::<f64>()
         / vtotal;
-    let mut sorted = conf.clone();
-    sorted.sort_by(f64::total_cmp);
-    let conformal_p99 = sorted
-        .get(((sorted.len() as f64 * 0.99) as usize).min(sorted.len().saturating_sub(1)))
-        .copied()
-        .unwrap_or(1.0);
+    let conformal_p99 = conformal_p99(&j);
     let mean_det = j
         .iter()
         .zip(&areas)
@@ -131,20 +142,23 @@ pub(crate) fn seam_error(
     trans: &[(u8, [f64; 2])],
     lattice: Lattice,
 ) -> f64 {
-    let mut worst: f64 = 0.0;
-    for e in 0..mesh.n_edges() {
-        let (h0, Some(h1)) = mesh.edge_halfedges(e) else {
-            continue;
-        };
-        let (t, tau) = trans[e];
-        let r = rots.get(t as i64);
-        for (ci, cj) in [(h0, mesh.next(h1)), (mesh.next(h0), h1)] {
-            let p = apply(r, uv[ci]);
-            worst = worst.max((uv[cj][0] - p[0] - tau[0]).hypot(uv[cj][1] - p[1] - tau[1]));
-        }
-        worst = worst.max(lattice.distance(tau));
-    }
-    worst
+    // A maximum: the same in any order (f64::max passes over NaN either way).
+    (0..mesh.n_edges())
+        .into_par_iter()
+        .map(|e| {
+            let (h0, Some(h1)) = mesh.edge_halfedges(e) else {
+                return 0.0;
+            };
+            let (t, tau) = trans[e];
+            let r = rots.get(t as i64);
+            let mut worst = lattice.distance(tau);
+            for (ci, cj) in [(h0, mesh.next(h1)), (mesh.next(h0), h1)] {
+                let p = apply(r, uv[ci]);
+                worst = worst.max((uv[cj][0] - p[0] - tau[0]).hypot(uv[cj][1] - p[1] - tau[1]));
+            }
+            worst
+        })
+        .reduce(|| 0.0, f64::max)
 }
 
 /// Index of every interior vertex (0 on the boundary): (Σ δ_e + K(v)) / 2π, with δ_e the

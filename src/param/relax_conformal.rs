@@ -74,7 +74,7 @@ impl QuadCover {
             &cones,
             &global,
             &mut uv,
-            p.miswound.len(),
+            &p.miswound,
             cancel,
         );
         if cancel() {

@@ -360,6 +360,35 @@ pub(crate) fn miswound(mesh: &TriMesh, uv: &[[f64; 2]], cones: &[f64]) -> Vec<us
         .collect()
 }
 
+/// [`miswound`] of `uv` given those of `before` (`was`): only vertices of faces whose
+/// corners changed are walked again.
+fn miswound_after(
+    mesh: &TriMesh,
+    uv: &[[f64; 2]],
+    cones: &[f64],
+    was: &[usize],
+    before: &[[f64; 2]],
+) -> Vec<usize> {
+    let changed: Vec<usize> = (0..mesh.n_faces())
+        .into_par_iter()
+        .filter(|&f| (3 * f..3 * f + 3).any(|c| uv[c] != before[c]))
+        .collect();
+    let mut near: Vec<usize> = changed.iter().flat_map(|&f| mesh.face(f)).collect();
+    near.sort_unstable();
+    near.dedup();
+    let mut out: Vec<usize> = was
+        .iter()
+        .copied()
+        .filter(|v| near.binary_search(v).is_err())
+        .chain(near.iter().copied().filter(|&v| {
+            let cone = cones[v];
+            !mesh.is_boundary_vertex(v) && !cone.is_nan() && !wound_by(fan_turn(mesh, uv, v), cone)
+        }))
+        .collect();
+    out.sort_unstable();
+    out
+}
+
 /// Signed area of the texture triangle of face f (corners 3f, 3f + 1, 3f + 2).
 pub(crate) fn uv_area(uv: &[[f64; 2]], f: usize) -> f64 {
     let [a, b, c] = [uv[3 * f], uv[3 * f + 1], uv[3 * f + 2]];
@@ -674,6 +703,7 @@ fn references(
         front = next;
     }
     (0..mesh.n_faces())
+        .into_par_iter()
         .map(|f| {
             if mesh.face(f).iter().any(|&v| near[v]) {
                 guide[f]
@@ -998,8 +1028,9 @@ impl Regions<'_> {
 /// conformal distortion the report measures (72 cases: p99 more than 5 % above the global
 /// step's map in 18 → 2, docs/untangling.md). Seeding every changed face instead made
 /// regions past [`MAX_REGION`], which are not solved. Undone if a free vertex ends up wound
-/// wrongly (the line search checks faces, not windings): `miswound_now` is how many are in
-/// `uv` now. `uv` has no fold. Returns the
+/// wrongly (the line search checks faces, not windings): `miswound_now` are those of `uv`
+/// now ([`miswound`], sorted; only vertices next to changed faces are checked again). `uv` has
+/// no fold. Returns the
 /// mis-wound vertices ([`miswound`]) of the relaxed map when `uv` changed.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn relax_conformal(
@@ -1011,7 +1042,7 @@ pub(crate) fn relax_conformal(
     cones: &[f64],
     global: &[[f64; 2]],
     uv: &mut [[f64; 2]],
-    miswound_now: usize,
+    miswound_now: &[usize],
     cancel: super::CancelCheck<'_>,
 ) -> Option<Vec<usize>> {
     // (a re-rounded map is the global step's plus the repair's offset: equal up to rounding
@@ -1020,10 +1051,15 @@ pub(crate) fn relax_conformal(
         let (p, q) = (uv[c], global[c]);
         (p[0] - q[0]).hypot(p[1] - q[1]) > 1e-9 * (1.0 + q[0].abs().max(q[1].abs()))
     };
-    let level = super::metrics::quality(mesh, global).conformal_p99;
-    let now = super::metrics::jacobians(mesh, uv);
+    let level = super::metrics::conformal_p99(&super::metrics::jacobians(mesh, global));
     let seeds: Vec<usize> = (0..mesh.n_faces())
-        .filter(|&f| (0..3).any(|a| moved(3 * f + a)) && !(now[f].1 <= level * now[f].2))
+        .into_par_iter()
+        .filter(|&f| {
+            (0..3).any(|a| moved(3 * f + a)) && {
+                let (_, s1, s2) = super::metrics::jacobian(mesh, uv, f);
+                !(s1 <= level * s2)
+            }
+        })
         .collect();
     if seeds.is_empty() || cancel() {
         return None;
@@ -1041,8 +1077,8 @@ pub(crate) fn relax_conformal(
     let before = miswound_now;
     let start = uv.to_vec();
     at.solve(uv, &seeds, CONFORMAL_RINGS, true, true, cancel);
-    let after = miswound(mesh, uv, cones);
-    if after.len() > before {
+    let after = miswound_after(mesh, uv, cones, miswound_now, &start);
+    if after.len() > before.len() {
         uv.copy_from_slice(&start);
         return None;
     }
@@ -1392,7 +1428,7 @@ fn ring_start(
     unknown: &[[u32; 2]],
     free: &[usize],
     y: &[[f64; 2]],
-    uv: &[[f64; 2]],
+    uv: impl Fn(usize) -> [f64; 2],
 ) -> Option<Vec<[f64; 2]>> {
     let mut out = y.to_vec();
     let mut any = false;
@@ -1400,7 +1436,7 @@ fn ring_start(
         if mesh.is_boundary_vertex(v) {
             continue;
         }
-        let angle = fan_turn(mesh, uv, v);
+        let angle = fan_turn_with(mesh, v, &uv);
         if (angle - std::f64::consts::TAU).abs() <= std::f64::consts::PI {
             continue;
         }
@@ -1410,7 +1446,8 @@ fn ring_start(
             let pv = mesh.position(v);
             for a in [mesh.next(h), mesh.prev(h)] {
                 let d = pv - mesh.position(mesh.from(a));
-                let t = [uv[a][0] + disk[f][0].dot(d), uv[a][1] + disk[f][1].dot(d)];
+                let p = uv(a);
+                let t = [p[0] + disk[f][0].dot(d), p[1] + disk[f][1].dot(d)];
                 let q = corner_unknowns(rots, space, h, t);
                 sum = [sum[0] + q[0], sum[1] + q[1]];
                 count += 1.0;
@@ -1492,16 +1529,13 @@ fn solve_region(
             })
             .sum()
     };
-    // d ψ_c / d y_{v,k} for a corner of a free vertex.
-    // The map with the region's unknowns `y` written in (a copy of `uv`).
-    let corners_of = |y: &[[f64; 2]]| -> Vec<[f64; 2]> {
-        let mut out = uv.to_vec();
-        for (i, &v) in free.iter().enumerate() {
-            for h in mesh.outgoing(v) {
-                out[h] = corner_uv(rots, space, h, y[i]);
-            }
+    // Corner c of the map with the region's unknowns `y` written in (a copy of `uv` per
+    // region cost 50 MB of copying at 1.1 M faces).
+    let corner_of = |y: &[[f64; 2]], c: usize| -> [f64; 2] {
+        match slot_of.get(&mesh.from(c)) {
+            Some(&s) => corner_uv(rots, space, c, y[s as usize]),
+            None => uv[c],
         }
-        out
     };
     let (folds0, detmin0) = measure(&y0);
     if relax && folds0 > 0 {
@@ -1754,8 +1788,9 @@ fn solve_region(
     // start again with those vertices placed from their neighbours by the target triangles.
     if folds > 0
         && restarts
-        && let Some(start) =
-            ring_start(mesh, rots, space, disk, &unknown, free, &y, &corners_of(&y))
+        && let Some(start) = ring_start(mesh, rots, space, disk, &unknown, free, &y, |c| {
+            corner_of(&y, c)
+        })
     {
         let y1 = run(start);
         let m = measure(&y1);
