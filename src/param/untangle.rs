@@ -1932,6 +1932,17 @@ mod tests {
         assert!((fan_turn(&mesh, &twice, centre) - 2.0 * std::f64::consts::TAU).abs() < 1e-9);
         assert!(miswound(&mesh, &once, &cones).is_empty());
         assert_eq!(miswound(&mesh, &twice, &cones), vec![centre]);
+        // Re-checked from a map it changed to: only the changed faces' vertices are walked.
+        assert_eq!(
+            miswound_after(&mesh, &twice, &cones, &[], &once),
+            vec![centre]
+        );
+        assert!(miswound_after(&mesh, &once, &cones, &[centre], &twice).is_empty());
+        // Nothing changed: the earlier list stands (not walked again).
+        assert_eq!(
+            miswound_after(&mesh, &once, &cones, &[centre], &once),
+            vec![centre]
+        );
         cones[centre] = 2.0 * std::f64::consts::TAU;
         assert!(miswound(&mesh, &twice, &cones).is_empty());
         assert_eq!(miswound(&mesh, &once, &cones), vec![centre]);
