@@ -774,11 +774,14 @@ impl QuadCover {
         if curves.is_empty() && first.poles.is_empty() && !self.opts.no_untangle {
             first = self.reround_windings_of(mesh, frames, first, cancel)?;
         }
-        // Under curves only for folds: most constrained maps keep a few mis-wound vertices,
-        // and a second solve for those doubled the repair time of the constraint sweep for
-        // 10 % fewer of them (docs/untangling.md).
+        // Under curves for folds and for many mis-wound vertices only: most constrained maps
+        // keep a few, and a second solve for those doubled the repair time of the constraint
+        // sweep for 10 % fewer of them; many are a crowded cluster at a coarse density, what
+        // the finer grid is for (docs/untangling.md).
         let done = |p: &Parameterization| {
-            p.flipped_faces == 0 && (!curves.is_empty() || p.miswound.is_empty())
+            p.flipped_faces == 0
+                && (p.miswound.is_empty()
+                    || (!curves.is_empty() && p.miswound.len() <= crowded::FEW_MISWOUND))
         };
         if self.opts.no_untangle
             || self.opts.no_crowded_refinement
