@@ -1603,8 +1603,10 @@ fn solve_region(
             })
             .collect()
     };
-    // One Newton step on f_ε with a backtracking (Armijo) line search; false when stalled.
-    let newton = |y: &mut Vec<[f64; 2]>, eps: f64| -> bool {
+    // One Newton step on f_ε from `y`, whose energy is `e0`, with a backtracking (Armijo)
+    // line search: the energy of the step taken (None when none is), and whether it made
+    // progress enough for another.
+    let newton = |y: &mut Vec<[f64; 2]>, eps: f64, e0: f64| -> (Option<f64>, bool) {
         let mut g = vec![0.0; n];
         let mut values = vec![0.0; pattern.nnz()];
         let mut diag = 0.0;
@@ -1636,31 +1638,30 @@ fn solve_region(
             values[d] += reg;
         }
         let Ok(m) = pattern.with_values(values) else {
-            return false;
+            return (None, false);
         };
         let Ok(solver) = SpdSolver::with_analysis_sequential(analysis.clone(), &m) else {
-            return false;
+            return (None, false);
         };
         let rhs: Vec<f64> = g.iter().map(|x| -x).collect();
         let Ok(step) = solver.solve(&rhs) else {
-            return false;
+            return (None, false);
         };
         let slope: f64 = g.iter().zip(&step).map(|(a, b)| a * b).sum();
         if !(slope < 0.0) {
-            return false;
+            return (None, false);
         }
-        let e0 = total(y, eps);
         let mut t = 1.0;
         for _ in 0..40 {
             let trial = step_of(y, &step, t);
             let e1 = total(&trial, eps);
             if e1.is_finite() && e1 <= e0 + 1e-4 * t * slope {
                 *y = trial;
-                return -slope >= 1e-12 * e0.abs();
+                return (Some(e1), -slope >= 1e-12 * e0.abs());
             }
             t *= 0.5;
         }
-        false
+        (None, false)
     };
     let constrained = free.iter().any(|&v| space.free[v] != [true, true]);
     let fold_stagnation = if constrained {
@@ -1686,12 +1687,18 @@ fn solve_region(
             if cancel() {
                 break;
             }
+            // (the energies are carried along: each is the same sum over the region's faces
+            // as a new evaluation would be)
+            let mut e = e_prev;
             for _ in 0..NEWTON_PER_EPS {
-                if !newton(&mut y, eps) {
+                let (taken, more) = newton(&mut y, eps, e);
+                if let Some(e1) = taken {
+                    e = e1;
+                }
+                if !more {
                     break;
                 }
             }
-            let e = total(&y, eps);
             let (folds_now, detmin) = measure(&y);
             let sigma = (1.0 - e / e_prev).max(0.1);
             let mu = (1.0 - sigma) * chi(detmin, eps);
