@@ -75,7 +75,11 @@ pub fn extract_stripes(p: &Param) -> Remesh {
                 by_level.entry(xf.x.round() as i64).or_default().push(id);
             }
         }
-        for (level, ids) in by_level {
+        // In level order: the links' order decides how the polylines are chained, and a
+        // hash map's order differs between runs.
+        let mut levels: Vec<(i64, Vec<u32>)> = by_level.into_iter().collect();
+        levels.sort_unstable_by_key(|x| x.0);
+        for (level, ids) in levels {
             if ids.len() == 2 {
                 links.push((ids[0], ids[1]));
                 continue;

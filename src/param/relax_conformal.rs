@@ -64,7 +64,6 @@ impl QuadCover {
         };
         let space = self.global.map_space(mesh.n_vertices(), &p.gaps);
         let cones = cones(mesh, &p.singularities);
-        let mut uv = p.uv.clone();
         let relaxed = untangle::relax_conformal(
             mesh,
             &self.rots,
@@ -73,7 +72,7 @@ impl QuadCover {
             &local.guide,
             &cones,
             &global,
-            &mut uv,
+            &p.uv,
             &p.miswound,
             cancel,
         );
@@ -81,7 +80,7 @@ impl QuadCover {
             return Err(ParamError::Cancelled);
         }
         // Only free unknowns moved: the singularities, gaps, cut and curl are as they were.
-        if let Some(miswound) = relaxed {
+        if let Some((uv, miswound)) = relaxed {
             let trans: Vec<(u8, [f64; 2])> = p
                 .transitions
                 .iter()

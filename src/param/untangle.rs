@@ -1027,11 +1027,10 @@ impl Regions<'_> {
 /// relaxation aims at the frames, which are anisotropic next to singularities; this one at the
 /// conformal distortion the report measures (72 cases: p99 more than 5 % above the global
 /// step's map in 18 → 2, docs/untangling.md). Seeding every changed face instead made
-/// regions past [`MAX_REGION`], which are not solved. Undone if a free vertex ends up wound
-/// wrongly (the line search checks faces, not windings): `miswound_now` are those of `uv`
-/// now ([`miswound`], sorted; only vertices next to changed faces are checked again). `uv` has
-/// no fold. Returns the
-/// mis-wound vertices ([`miswound`]) of the relaxed map when `uv` changed.
+/// regions past [`MAX_REGION`], which are not solved. `uv` has no fold; `miswound_now` are its
+/// mis-wound vertices ([`miswound`], sorted; only vertices next to changed faces are checked
+/// again). Returns the relaxed map and its mis-wound vertices; None when nothing changed or a
+/// free vertex ends up wound wrongly (the line search checks faces, not windings).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn relax_conformal(
     mesh: &TriMesh,
@@ -1041,10 +1040,10 @@ pub(crate) fn relax_conformal(
     guide: &[[DVec3; 2]],
     cones: &[f64],
     global: &[[f64; 2]],
-    uv: &mut [[f64; 2]],
+    uv: &[[f64; 2]],
     miswound_now: &[usize],
     cancel: super::CancelCheck<'_>,
-) -> Option<Vec<usize>> {
+) -> Option<(Vec<[f64; 2]>, Vec<usize>)> {
     // (a re-rounded map is the global step's plus the repair's offset: equal up to rounding
     // where the repair did nothing)
     let moved = |c: usize| {
@@ -1074,15 +1073,10 @@ pub(crate) fn relax_conformal(
         mean_area: mean_target_area(mesh, &reference),
         cones,
     };
-    let before = miswound_now;
-    let start = uv.to_vec();
-    at.solve(uv, &seeds, CONFORMAL_RINGS, true, true, cancel);
-    let after = miswound_after(mesh, uv, cones, miswound_now, &start);
-    if after.len() > before.len() {
-        uv.copy_from_slice(&start);
-        return None;
-    }
-    (uv != start.as_slice()).then_some(after)
+    let mut relaxed = uv.to_vec();
+    at.solve(&mut relaxed, &seeds, CONFORMAL_RINGS, true, true, cancel);
+    let after = miswound_after(mesh, &relaxed, cones, miswound_now, uv);
+    (after.len() <= miswound_now.len() && relaxed.as_slice() != uv).then_some((relaxed, after))
 }
 
 /// Whether writing the unknowns `update` into `uv` would leave a held vertex next to them
