@@ -23,17 +23,21 @@
 //! the other. There the steps of [`WIDE_LADDER`] are wider and stiffer, a try may not wind any
 //! other branch point wrongly, and when it would, those branch points are made centres of the
 //! stiff region too and the solve is repeated ([`JOINT_TRIES`]).
+//!
+//! Where every stiff solve adds too many folds (fine meshes, where the region is a small part
+//! of a cell), the branch point is rewound through its cone's power map instead
+//! ([`power_solve`]): a Tutte embedding in the chart where the cone is a regular point.
 
 use std::collections::HashMap;
 
 use glam::DVec3;
 
 use super::{
-    MapSpace, NONE, corner_uv, faces_around, fan_turn, fan_turn_with, jacobian, jacobian_terms,
-    number_unknowns, reference, unknowns_of, wound_by,
+    MapSpace, NONE, corner_unknowns, corner_uv, faces_around, fan_turn, fan_turn_with, jacobian,
+    jacobian_terms, number_unknowns, reference, unknowns_of, wound_by,
 };
 use crate::mesh::TriMesh;
-use crate::param::rot::Rots;
+use crate::param::rot::{Rots, apply};
 use crate::sparse::{SparseBuilder, SpdSolver};
 
 /// The stiffenings tried per branch point, in order, until one winds it correctly: (rings of
@@ -59,6 +63,12 @@ const JOINT_TRIES: usize = 4;
 /// faces, 26 branch points left: with 60 and steps up to 16 rings and S = 1000, 26 → 6 left in
 /// 7 s more; with 30 and these two steps, 26 → 11 in 1.2 s; with 20, 26 → 18).
 const WIDE_MAX_ADDED_FOLDS: i64 = 30;
+
+/// The regions of [`power_solve`], in order, in rings: wider ones put a lattice point rounded
+/// far from the region's middle farther inside.
+const POWER_RINGS: [usize; 4] = [8, 12, 16, 24];
+/// How far from a branch point [`power_solve`] looks for the vertex that wraps twice.
+const PARTNER_RINGS: usize = 24;
 
 /// How a rewinding round tries: its stiffenings in order, the most folds one rewinding may add,
 /// and whether a try must leave every other branch point's winding as it was (joining those
@@ -123,6 +133,7 @@ pub(crate) fn rewind(
         if !wrong(uv, b) {
             continue;
         }
+        let mut wound = false;
         'ladder: for &step in round.ladder {
             // b alone; then, in the second round, b with the branch points its region unwound
             // (two near each other otherwise take turns: rewinding one unwinds the other)
@@ -147,12 +158,35 @@ pub(crate) fn rewind(
                             done.push(c);
                         }
                     }
+                    wound = true;
                     break 'ladder;
                 }
                 if !round.joint || trial.unwound_others.is_empty() {
                     break;
                 }
                 centers.extend(trial.unwound_others);
+            }
+        }
+        if wound {
+            continue;
+        }
+        // The stiff solves failed: through the cone's power map ([`power_solve`]).
+        for rings in POWER_RINGS {
+            let Some(y) = power_solve(mesh, rots, space, uv, cones[b], b, rings) else {
+                continue;
+            };
+            let trial = trial_of(mesh, rots, space, uv, cones, &y, &[b], round.joint);
+            if trial.centers_ok
+                && trial.added <= round.max_added
+                && (!round.joint || trial.unwound_others.is_empty())
+            {
+                for (v, yv) in &y {
+                    for h in mesh.outgoing(*v) {
+                        uv[h] = corner_uv(rots, space, h, *yv);
+                    }
+                }
+                done.push(b);
+                break;
             }
         }
     }
@@ -248,23 +282,7 @@ fn stiff_solve(
     centers: &[usize],
     (rings, stiffness, stiff_rings): (usize, f64, usize),
 ) -> Option<Vec<(usize, [f64; 2])>> {
-    // Rings from the centers.
-    let mut dist: HashMap<usize, usize> = centers.iter().map(|&c| (c, 0)).collect();
-    let mut front = centers.to_vec();
-    for d in 1..=rings {
-        let mut next = Vec::new();
-        for &v in &front {
-            for h in mesh.outgoing(v) {
-                for w in mesh.face(mesh.face_of(h)) {
-                    if let std::collections::hash_map::Entry::Vacant(e) = dist.entry(w) {
-                        e.insert(d);
-                        next.push(w);
-                    }
-                }
-            }
-        }
-        front = next;
-    }
+    let dist = rings_from(mesh, centers, rings);
     let mut free: Vec<usize> = dist
         .iter()
         .filter(|&(&v, &d)| d < rings && space.var[mesh.vertex_halfedge(v)] != NONE)
@@ -358,4 +376,289 @@ fn stiff_solve(
             })
             .collect(),
     )
+}
+
+/// The rewinding through the cone's power map, for a branch point `b` whose stiff solves add
+/// too many folds (on fine meshes, where the region is a small part of a cell and the twist
+/// folds many small faces).
+///
+/// Around a cone of angle Θ the map z ↦ ζ = z^α, α = 2π / Θ (z the position relative to the
+/// branch point, its angle taken continuously), is single-valued and turns the cone into a
+/// regular point. So: the region's rim (held) is carried to ζ, where it winds once around 0
+/// when the rim winds Θ around the branch point; the vertices inside are placed by a Tutte
+/// embedding there (uniform weights: over the 57 plain sweep solves they left 7 patched places
+/// against 13 with cotangent weights), which winds every vertex once; and ζ ↦ ζ^{1/α} carries
+/// them back. The branch point then turns by Θ and its neighbours by 2π wherever the embedding
+/// did not fold, and the repair starts from that. The region is `rings` rings around b and
+/// around the nearest vertex that wraps twice (where the turn b misses went; the mis-wound
+/// pattern the global step leaves), so that its rim winds by Θ.
+///
+/// The embedding is solved with b free, then translated so that b lands on 0, the translation
+/// falling off linearly in rings to the rim: with b held at 0 in the solve, its neighbours stay
+/// off to one side where the rounding put the lattice point off the region's middle (the usual
+/// case), and its fan does not wind at all. Going back, each vertex takes the branch of ζ^{1/α}
+/// next to a placed neighbour's, and the rotation by a multiple of 2π / N between the face's
+/// chart and the branch is read at that neighbour.
+///
+/// `None` when the region holds another branch point, pinned vertex or the mesh boundary, is
+/// not a disc, or its rim does not wind Θ around the branch point.
+pub(super) fn power_solve(
+    mesh: &TriMesh,
+    rots: &Rots,
+    space: &MapSpace,
+    uv: &[[f64; 2]],
+    cone: f64,
+    b: usize,
+    rings: usize,
+) -> Option<Vec<(usize, [f64; 2])>> {
+    use std::f64::consts::{PI, TAU};
+    if !(cone.is_finite() && cone > 0.0) || space.var[mesh.vertex_halfedge(b)] != NONE {
+        return None;
+    }
+    let unit = TAU / rots.n as f64;
+    let alpha = TAU / cone;
+    // The region: rings around b and around the nearest free vertex that wraps twice (where
+    // the turn b misses went), so that its rim winds by the cone angle.
+    let near = rings_from(mesh, &[b], PARTNER_RINGS);
+    let mut partner: Option<(usize, usize)> = None;
+    for (&v, &d) in &near {
+        if v != b
+            && !mesh.is_boundary_vertex(v)
+            && mesh.outgoing(v).all(|h| space.var[h] != NONE)
+            && fan_turn(mesh, uv, v) > 1.5 * TAU
+            && partner.is_none_or(|(pv, pd)| (d, v) < (pd, pv))
+        {
+            partner = Some((v, d));
+        }
+    }
+    let centers: Vec<usize> = std::iter::once(b).chain(partner.map(|(v, _)| v)).collect();
+    let dist = rings_from(mesh, &centers, rings);
+    let inner: Vec<usize> = dist
+        .iter()
+        .filter(|&(_, &d)| d < rings)
+        .map(|(&v, _)| v)
+        .collect();
+    // The region's faces: those at a vertex inside the rings; every other vertex of them is on
+    // the rim or inside (a vertex `rings` away with all its faces in the region).
+    let faces = faces_around(mesh, &inner);
+    let in_region: HashMap<usize, ()> = faces.iter().map(|&f| (f, ())).collect();
+    let mut rim: HashMap<usize, usize> = HashMap::new();
+    for &f in &faces {
+        for a in 0..3 {
+            let h = 3 * f + a;
+            let inside = mesh
+                .twin(h)
+                .is_some_and(|t| in_region.contains_key(&mesh.face_of(t)));
+            if !inside && rim.insert(mesh.from(h), h).is_some() {
+                return None;
+            }
+        }
+    }
+    let mut free: Vec<usize> = faces
+        .iter()
+        .flat_map(|&f| mesh.face(f))
+        .filter(|&v| v != b && !rim.contains_key(&v))
+        .collect();
+    free.sort_unstable();
+    free.dedup();
+    let all_free = free.iter().all(|&v| {
+        !mesh.is_boundary_vertex(v)
+            && mesh.outgoing(v).all(|h| space.var[h] != NONE)
+            && space.free[v][0]
+            && space.free[v][1]
+    });
+    if free.is_empty() || !all_free {
+        return None;
+    }
+    let slot: HashMap<usize, usize> = free.iter().enumerate().map(|(i, &v)| (v, i)).collect();
+    let turn = |k: i64, x: [f64; 2]| apply(rots.get(k), x);
+    // The faces developed into the chart of a face of b's fan: in face f, a corner's position
+    // relative to the branch point is R^(−k_f) (ψ_c − p_f).
+    let f0 = mesh.face_of(mesh.vertex_halfedge(b));
+    let mut dev: HashMap<usize, ([f64; 2], i64)> = HashMap::new();
+    dev.insert(f0, (uv[mesh.vertex_halfedge(b)], 0));
+    let mut queue = std::collections::VecDeque::from([f0]);
+    while let Some(f) = queue.pop_front() {
+        let (p, k) = dev[&f];
+        for a in 0..3 {
+            let h = 3 * f + a;
+            let Some(t) = mesh.twin(h) else { continue };
+            let g = mesh.face_of(t);
+            if !in_region.contains_key(&g) || dev.contains_key(&g) {
+                continue;
+            }
+            // A corner of the edge that is an unknown carries the transition f → g.
+            let pair = [(h, mesh.next(t)), (mesh.next(h), t)]
+                .into_iter()
+                .find(|&(cf, cg)| space.var[cf] != NONE && space.var[cg] != NONE);
+            let Some((cf, cg)) = pair else { continue };
+            let r = i64::from(space.rot[cg]) - i64::from(space.rot[cf]);
+            let q = turn(r, [p[0] - space.consts[cf][0], p[1] - space.consts[cf][1]]);
+            dev.insert(
+                g,
+                (
+                    [space.consts[cg][0] + q[0], space.consts[cg][1] + q[1]],
+                    k + r,
+                ),
+            );
+            queue.push_back(g);
+        }
+    }
+    if dev.len() != faces.len() {
+        return None;
+    }
+    let rel = |c: usize, x: [f64; 2]| -> [f64; 2] {
+        let (p, k) = dev[&(c / 3)];
+        turn(-k, [x[0] - p[0], x[1] - p[1]])
+    };
+    // The rim, one loop.
+    let start = *rim.keys().min()?;
+    let mut theta: HashMap<usize, f64> = HashMap::new();
+    let (mut v, mut angle) = (start, {
+        let z = rel(rim[&start], uv[rim[&start]]);
+        z[1].atan2(z[0])
+    });
+    for _ in 0..rim.len() {
+        theta.insert(v, angle);
+        let h = rim[&v];
+        let (x, y) = (rel(h, uv[h]), rel(mesh.next(h), uv[mesh.next(h)]));
+        if x[0].hypot(x[1]) == 0.0 || y[0].hypot(y[1]) == 0.0 {
+            return None;
+        }
+        angle += (x[0] * y[1] - x[1] * y[0]).atan2(x[0] * y[0] + x[1] * y[1]);
+        v = mesh.to(h);
+        if v == start {
+            break;
+        }
+    }
+    if v != start || theta.len() != rim.len() || (angle - theta[&start] - cone).abs() > 0.25 {
+        return None;
+    }
+    // ζ on the rim, then the Tutte embedding inside.
+    let zeta_of = |r: f64, t: f64| {
+        let s = r.powf(alpha);
+        [s * (alpha * t).cos(), s * (alpha * t).sin()]
+    };
+    let rim_zeta: HashMap<usize, [f64; 2]> = theta
+        .iter()
+        .map(|(&v, &t)| {
+            let z = rel(rim[&v], uv[rim[&v]]);
+            (v, zeta_of(z[0].hypot(z[1]), t))
+        })
+        .collect();
+    // The Tutte embedding with the branch point free too (unknown n), then a translation
+    // that carries it to 0, falling off linearly in rings to the rim: pinned at 0 in the
+    // solve, the branch point's neighbours would stay off to one side where the rounding put
+    // the lattice point off the region's middle, and its fan would not wind at all.
+    let n = free.len();
+    let index = |u: usize| {
+        if u == b {
+            Some(n)
+        } else {
+            slot.get(&u).copied()
+        }
+    };
+    let mut lap = SparseBuilder::<f64>::with_capacity(n + 1, 8 * (n + 1));
+    let mut rhs = vec![[0.0; 2]; n + 1];
+    for v in free.iter().copied().chain([b]) {
+        let i = index(v)?;
+        for h in mesh.outgoing(v) {
+            let u = mesh.to(h);
+            lap.add(i, i, 1.0);
+            if let Some(j) = index(u) {
+                lap.add(i, j, -1.0);
+            } else {
+                let z = rim_zeta.get(&u)?;
+                rhs[i][0] += z[0];
+                rhs[i][1] += z[1];
+            }
+        }
+    }
+    let solver = SpdSolver::new(&lap.build().ok()?).ok()?;
+    let xs = solver
+        .solve(&rhs.iter().map(|r| r[0]).collect::<Vec<_>>())
+        .ok()?;
+    let ys = solver
+        .solve(&rhs.iter().map(|r| r[1]).collect::<Vec<_>>())
+        .ok()?;
+    let shift = [xs[n], ys[n]];
+    let zeta = |v: usize| -> [f64; 2] {
+        match slot.get(&v) {
+            Some(&i) => {
+                let t = 1.0 - dist[&v].min(rings) as f64 / rings as f64;
+                [xs[i] - t * shift[0], ys[i] - t * shift[1]]
+            }
+            None if v == b => [0.0, 0.0],
+            None => rim_zeta[&v],
+        }
+    };
+    // Back through ζ^{1/α}, from the rim inwards.
+    let mut y: Vec<Option<[f64; 2]>> = vec![None; n];
+    let mut order: Vec<usize> = theta.keys().copied().collect();
+    order.sort_unstable();
+    let mut queue = std::collections::VecDeque::from(order);
+    while let Some(u) = queue.pop_front() {
+        let zu = zeta(u);
+        let au = zu[1].atan2(zu[0]);
+        for h in mesh.outgoing(u) {
+            let w = mesh.to(h);
+            let Some(&i) = slot.get(&w) else { continue };
+            if y[i].is_some() {
+                continue;
+            }
+            // u's position in this face's chart: held on the rim, placed inside.
+            let at_u = match slot.get(&u) {
+                Some(&s) => corner_uv(rots, space, h, y[s]?),
+                None => uv[h],
+            };
+            let zu_dev = rel(h, at_u);
+            let ru = zu[0].hypot(zu[1]).powf(1.0 / alpha);
+            if ru == 0.0 {
+                continue;
+            }
+            // The face's rotation against the branch at u: a multiple of 2π / N.
+            let raw = zu_dev[1].atan2(zu_dev[0]) - au / alpha;
+            let rho = (raw / unit).round() * unit;
+            if ((raw - rho) / unit).abs() > 0.25 {
+                return None;
+            }
+            let zw = zeta(w);
+            let mut aw = zw[1].atan2(zw[0]) - au;
+            aw -= TAU * ((aw + PI) / TAU).floor();
+            let (rw, tw) = (
+                zw[0].hypot(zw[1]).powf(1.0 / alpha),
+                (au + aw) / alpha + rho,
+            );
+            let (p, k) = dev[&mesh.face_of(h)];
+            let d = turn(k, [rw * tw.cos(), rw * tw.sin()]);
+            let c = mesh.next(h);
+            y[i] = Some(corner_unknowns(rots, space, c, [p[0] + d[0], p[1] + d[1]]));
+            queue.push_back(w);
+        }
+    }
+    free.iter()
+        .zip(&y)
+        .map(|(&v, yv)| yv.map(|yv| (v, yv)))
+        .collect()
+}
+
+/// Ring distances from `centers` up to `rings`.
+fn rings_from(mesh: &TriMesh, centers: &[usize], rings: usize) -> HashMap<usize, usize> {
+    let mut dist: HashMap<usize, usize> = centers.iter().map(|&c| (c, 0)).collect();
+    let mut front = centers.to_vec();
+    for d in 1..=rings {
+        let mut next = Vec::new();
+        for &v in &front {
+            for h in mesh.outgoing(v) {
+                for w in mesh.face(mesh.face_of(h)) {
+                    if let std::collections::hash_map::Entry::Vacant(e) = dist.entry(w) {
+                        e.insert(d);
+                        next.push(w);
+                    }
+                }
+            }
+        }
+        front = next;
+    }
+    dist
 }
