@@ -531,7 +531,7 @@ pub(super) fn power_solve(
             break;
         }
     }
-    if v != start || theta.len() != rim.len() || (angle - theta[&start] - cone).abs() > 0.25 {
+    if v != start || theta.len() != rim.len() || !((angle - theta[&start] - cone).abs() <= 0.25) {
         return None;
     }
     // ζ on the rim, then the Tutte embedding inside.
