@@ -35,8 +35,12 @@ pub struct Crowding {
 /// 1500 vertices with N = 6 a manifold copy again (χ −2 → −3), cerebral vessels aligned at 1500
 /// vertices with N = 6 30 → 2 mis-wound, 15 → 1 patched; the repair summed 138 → 146 s, and the
 /// four solves that take a finer try have 18–42 % more vertices. With no limit (every
-/// mis-wound vertex) the sweep's repair time doubled for 10 % fewer of them.
-pub const FEW_MISWOUND: usize = 12;
+/// mis-wound vertex) the sweep's repair time doubled for 10 % fewer of them. 12 → 8 on
+/// 2026-12-05, when the constrained solve began rewinding after its re-rounding too (fewer
+/// mis-wound vertices on first maps, so at 12 the bunny aligned at 1500 vertices, N = 6, no
+/// longer took its try: 13 → 23 patched places): over the sweep mis-wound 237 → 209, patched
+/// 478 → 459, repair summed 91 → 98 s (docs/untangling.md).
+pub const FEW_MISWOUND: usize = 8;
 
 /// The tries after the first solve, in order: each runs only while the best map so far keeps
 /// folds or mis-wound vertices (docs/untangling.md: 1.5 cells and 2× is best at coarse

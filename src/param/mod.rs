@@ -1076,10 +1076,14 @@ impl QuadCover {
             )?;
             repair.ms += ms(t);
         }
-        // (re-rounded gaps change the map space: then not)
-        if rerounded.is_empty() {
-            self.rewind_left(mesh, &local, &space, &cones, &mut uv, &mut repair, cancel);
-        }
+        // Re-rounded gaps change the map space (its constants): the re-rounded map's, on the
+        // same factorization.
+        let space = if rerounded.is_empty() {
+            space
+        } else {
+            self.curve_map(mesh, &local, &traced, step.as_ref(), &w)?.1
+        };
+        self.rewind_left(mesh, &local, &space, &cones, &mut uv, &mut repair, cancel);
         if cancel() {
             return Err(ParamError::Cancelled);
         }
