@@ -335,21 +335,28 @@ fn boundaries_lie_on_parameter_lines() {
     }
 }
 
-/// A constrained map whose gaps were rounded again is rewound afterwards too, in the re-rounded
-/// map's space (it was skipped: the space at hand was the first map's). The bunny with its
-/// boundary aligned, N = 4 at 1500 vertices: 28 mis-wound vertices left before, 16 now.
-#[test]
-fn constrained_maps_are_rewound_after_a_rerounding() {
-    let Some(path) = shared("bunny.obj") else {
-        return;
-    };
+/// The bunny with its boundary aligned at 1500 vertices, symmetry `n`, replayed and solved
+/// (`None` without the shared meshes).
+fn bunny_aligned_at_1500(n: u32) -> Option<(Base, EditState, Solved)> {
+    let path = shared("bunny.obj")?;
     let settings = Settings {
-        symmetry: 4,
+        symmetry: n,
         target_vertices: Some(1500),
         ..Settings::default()
     };
     let base = base_for(&path, settings);
     let (state, solved) = replay_solve(&base, &[Edit::AlignBoundary { on: true }]);
+    Some((base, state, solved))
+}
+
+/// A constrained map whose gaps were rounded again is rewound afterwards too, in the re-rounded
+/// map's space (it was skipped: the space at hand was the first map's). The bunny with its
+/// boundary aligned, N = 4 at 1500 vertices: 28 mis-wound vertices left before, 16 now.
+#[test]
+fn constrained_maps_are_rewound_after_a_rerounding() {
+    let Some((base, state, solved)) = bunny_aligned_at_1500(4) else {
+        return;
+    };
     let p = &solved.param;
     eprintln!(
         "bunny aligned, N = 4, 1500 vertices: {} mis-wound, re-rounded {:?}",
@@ -370,16 +377,9 @@ fn constrained_maps_are_rewound_after_a_rerounding() {
 /// 8 are left and the remesh is a manifold copy of the input.
 #[test]
 fn many_miswound_vertices_under_curves_take_a_finer_try() {
-    let Some(path) = shared("bunny.obj") else {
+    let Some((base, state, solved)) = bunny_aligned_at_1500(6) else {
         return;
     };
-    let settings = Settings {
-        symmetry: 6,
-        target_vertices: Some(1500),
-        ..Settings::default()
-    };
-    let base = base_for(&path, settings);
-    let (state, solved) = replay_solve(&base, &[Edit::AlignBoundary { on: true }]);
     let p = &solved.param;
     eprintln!(
         "bunny aligned, N = 6, 1500 vertices: {} mis-wound, crowded refinement {:?}",

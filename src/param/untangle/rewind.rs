@@ -28,7 +28,7 @@
 //! of a cell), the branch point is rewound through its cone's power map instead
 //! ([`power_solve`]): a Tutte embedding in the chart where the cone is a regular point.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use glam::DVec3;
 
@@ -144,15 +144,8 @@ pub(crate) fn rewind(
                     continue 'ladder;
                 };
                 let trial = trial_of(mesh, rots, space, uv, cones, &y, &centers, round.joint);
-                if trial.centers_ok
-                    && trial.added <= round.max_added
-                    && (!round.joint || trial.unwound_others.is_empty())
-                {
-                    for (v, yv) in &y {
-                        for h in mesh.outgoing(*v) {
-                            uv[h] = corner_uv(rots, space, h, *yv);
-                        }
-                    }
+                if trial.kept_in(round) {
+                    place(mesh, rots, space, &y, uv);
                     for c in centers {
                         if !done.contains(&c) {
                             done.push(c);
@@ -170,21 +163,17 @@ pub(crate) fn rewind(
         if wound {
             continue;
         }
-        // The stiff solves failed: through the cone's power map ([`power_solve`]).
+        // The stiff solves failed: through the cone's power map ([`power_solve`]), around b and
+        // the vertex wrapping twice near it (found once: a refused try leaves `uv` as it was).
+        let centers: Vec<usize> = std::iter::once(b)
+            .chain(double_wrap_near(mesh, space, uv, b))
+            .collect();
         for rings in POWER_RINGS {
-            let Some(y) = power_solve(mesh, rots, space, uv, cones[b], b, rings) else {
+            let Some(y) = power_solve(mesh, rots, space, uv, cones[b], &centers, rings) else {
                 continue;
             };
-            let trial = trial_of(mesh, rots, space, uv, cones, &y, &[b], round.joint);
-            if trial.centers_ok
-                && trial.added <= round.max_added
-                && (!round.joint || trial.unwound_others.is_empty())
-            {
-                for (v, yv) in &y {
-                    for h in mesh.outgoing(*v) {
-                        uv[h] = corner_uv(rots, space, h, *yv);
-                    }
-                }
+            if trial_of(mesh, rots, space, uv, cones, &y, &[b], round.joint).kept_in(round) {
+                place(mesh, rots, space, &y, uv);
                 done.push(b);
                 break;
             }
@@ -199,6 +188,31 @@ struct Trial {
     centers_ok: bool,
     added: i64,
     unwound_others: Vec<usize>,
+}
+
+impl Trial {
+    /// Whether `round` keeps this try: its centers wind correctly, it adds few folds and (in a
+    /// joint round) unwinds no other branch point.
+    fn kept_in(&self, round: &Round) -> bool {
+        self.centers_ok
+            && self.added <= round.max_added
+            && (!round.joint || self.unwound_others.is_empty())
+    }
+}
+
+/// Writes the unknowns `y` into the corners of their vertices.
+fn place(
+    mesh: &TriMesh,
+    rots: &Rots,
+    space: &MapSpace,
+    y: &[(usize, [f64; 2])],
+    uv: &mut [[f64; 2]],
+) {
+    for (v, yv) in y {
+        for h in mesh.outgoing(*v) {
+            uv[h] = corner_uv(rots, space, h, *yv);
+        }
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -378,6 +392,24 @@ fn stiff_solve(
     )
 }
 
+/// A vertex off the mesh boundary whose corners are all unknowns.
+fn movable(mesh: &TriMesh, space: &MapSpace, v: usize) -> bool {
+    !mesh.is_boundary_vertex(v) && mesh.outgoing(v).all(|h| space.var[h] != NONE)
+}
+
+/// The nearest vertex within [`PARTNER_RINGS`] of branch point `b` (the lowest index among the
+/// nearest) that may move and wraps twice: where the turn a branch point wound short misses
+/// went ([`power_solve`]'s region holds both).
+fn double_wrap_near(mesh: &TriMesh, space: &MapSpace, uv: &[[f64; 2]], b: usize) -> Option<usize> {
+    rings_from(mesh, &[b], PARTNER_RINGS)
+        .into_iter()
+        .filter(|&(v, _)| {
+            v != b && movable(mesh, space, v) && fan_turn(mesh, uv, v) > 1.5 * std::f64::consts::TAU
+        })
+        .min_by_key(|&(v, d)| (d, v))
+        .map(|(v, _)| v)
+}
+
 /// The rewinding through the cone's power map, for a branch point `b` whose stiff solves add
 /// too many folds (on fine meshes, where the region is a small part of a cell and the twist
 /// folds many small faces).
@@ -391,7 +423,8 @@ fn stiff_solve(
 /// them back. The branch point then turns by Θ and its neighbours by 2π wherever the embedding
 /// did not fold, and the repair starts from that. The region is `rings` rings around b and
 /// around the nearest vertex that wraps twice (where the turn b misses went; the mis-wound
-/// pattern the global step leaves), so that its rim winds by Θ.
+/// pattern the global step leaves; `centers`: b first, then that vertex if there is one), so
+/// that its rim winds by Θ.
 ///
 /// The embedding is solved with b free, then translated so that b lands on 0, the translation
 /// falling off linearly in rings to the rim: with b held at 0 in the solve, its neighbours stay
@@ -408,31 +441,17 @@ pub(super) fn power_solve(
     space: &MapSpace,
     uv: &[[f64; 2]],
     cone: f64,
-    b: usize,
+    centers: &[usize],
     rings: usize,
 ) -> Option<Vec<(usize, [f64; 2])>> {
     use std::f64::consts::{PI, TAU};
+    let b = *centers.first()?;
     if !(cone.is_finite() && cone > 0.0) || space.var[mesh.vertex_halfedge(b)] != NONE {
         return None;
     }
     let unit = TAU / rots.n as f64;
     let alpha = TAU / cone;
-    // The region: rings around b and around the nearest free vertex that wraps twice (where
-    // the turn b misses went), so that its rim winds by the cone angle.
-    let near = rings_from(mesh, &[b], PARTNER_RINGS);
-    let mut partner: Option<(usize, usize)> = None;
-    for (&v, &d) in &near {
-        if v != b
-            && !mesh.is_boundary_vertex(v)
-            && mesh.outgoing(v).all(|h| space.var[h] != NONE)
-            && fan_turn(mesh, uv, v) > 1.5 * TAU
-            && partner.is_none_or(|(pv, pd)| (d, v) < (pd, pv))
-        {
-            partner = Some((v, d));
-        }
-    }
-    let centers: Vec<usize> = std::iter::once(b).chain(partner.map(|(v, _)| v)).collect();
-    let dist = rings_from(mesh, &centers, rings);
+    let dist = rings_from(mesh, centers, rings);
     let inner: Vec<usize> = dist
         .iter()
         .filter(|&(_, &d)| d < rings)
@@ -441,14 +460,14 @@ pub(super) fn power_solve(
     // The region's faces: those at a vertex inside the rings; every other vertex of them is on
     // the rim or inside (a vertex `rings` away with all its faces in the region).
     let faces = faces_around(mesh, &inner);
-    let in_region: HashMap<usize, ()> = faces.iter().map(|&f| (f, ())).collect();
+    let in_region: HashSet<usize> = faces.iter().copied().collect();
     let mut rim: HashMap<usize, usize> = HashMap::new();
     for &f in &faces {
         for a in 0..3 {
             let h = 3 * f + a;
             let inside = mesh
                 .twin(h)
-                .is_some_and(|t| in_region.contains_key(&mesh.face_of(t)));
+                .is_some_and(|t| in_region.contains(&mesh.face_of(t)));
             if !inside && rim.insert(mesh.from(h), h).is_some() {
                 return None;
             }
@@ -461,13 +480,8 @@ pub(super) fn power_solve(
         .collect();
     free.sort_unstable();
     free.dedup();
-    let all_free = free.iter().all(|&v| {
-        !mesh.is_boundary_vertex(v)
-            && mesh.outgoing(v).all(|h| space.var[h] != NONE)
-            && space.free[v][0]
-            && space.free[v][1]
-    });
-    if free.is_empty() || !all_free {
+    let movable = |v: usize| movable(mesh, space, v) && space.free[v][0] && space.free[v][1];
+    if free.is_empty() || !free.iter().all(|&v| movable(v)) {
         return None;
     }
     let slot: HashMap<usize, usize> = free.iter().enumerate().map(|(i, &v)| (v, i)).collect();
@@ -484,7 +498,7 @@ pub(super) fn power_solve(
             let h = 3 * f + a;
             let Some(t) = mesh.twin(h) else { continue };
             let g = mesh.face_of(t);
-            if !in_region.contains_key(&g) || dev.contains_key(&g) {
+            if !in_region.contains(&g) || dev.contains_key(&g) {
                 continue;
             }
             // A corner of the edge that is an unknown carries the transition f → g.
