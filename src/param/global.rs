@@ -22,6 +22,33 @@ pub(crate) struct GlobalSystem {
     solver: BlockSolver,
 }
 
+/// The change of the global map per unit of one gap coordinate ([`GlobalSystem::responses`]).
+pub(crate) struct GapResponse<'a> {
+    system: &'a GlobalSystem,
+    rots: &'a Rots,
+    /// The corners whose constants move.
+    moved: std::collections::HashMap<usize, [f64; 2]>,
+    /// The vertex unknowns' change.
+    x: Vec<[f64; 2]>,
+}
+
+impl GapResponse<'_> {
+    /// The change at corner c.
+    pub fn at(&self, c: usize) -> [f64; 2] {
+        let mut p = self.moved.get(&c).copied().unwrap_or([0.0; 2]);
+        let v = self.system.corner_var[c];
+        if v != NONE {
+            let q = apply(
+                self.rots.get(self.system.corner_rot[c] as i64),
+                self.x[v as usize],
+            );
+            p[0] += q[0];
+            p[1] += q[1];
+        }
+        p
+    }
+}
+
 /// Cotan stiffness K_ab = A⟨∇λ_a, ∇λ_b⟩ of face f.
 pub(crate) fn stiffness(mesh: &TriMesh, f: usize) -> [[f64; 3]; 3] {
     let d: [DVec3; 3] = std::array::from_fn(|k| mesh.vector(3 * f + k));
@@ -193,6 +220,72 @@ impl GlobalSystem {
             }
         }
         out
+    }
+
+    /// How the map of [`Self::solve`] changes per unit of each gap coordinate in `units`
+    /// ((loop, coordinate)): ψ is affine in the gaps, so the change is the map of the unit gap
+    /// with the field's targets left out. Only the faces with a corner on that gap enter the
+    /// right-hand side, and all units are solved at once (a triangular solve per column costs
+    /// as much memory traffic as several together).
+    pub fn responses<'a>(
+        &'a self,
+        mesh: &TriMesh,
+        rots: &'a Rots,
+        units: &[(usize, usize)],
+    ) -> Result<Vec<GapResponse<'a>>, ParamError> {
+        // Per unit, the corners whose constant moves, and by how much.
+        let mut moved: Vec<Vec<(usize, [f64; 2])>> = vec![Vec::new(); units.len()];
+        for (c, lin) in self.corner_lin.iter().enumerate() {
+            for (k, m) in &lin.0 {
+                for (j, &(loop_k, i)) in units.iter().enumerate() {
+                    if *k as usize == loop_k {
+                        let mut e = [0.0; 2];
+                        e[i] = 1.0;
+                        moved[j].push((c, apply(m, e)));
+                    }
+                }
+            }
+        }
+        let mut rhs = vec![vec![[0.0; 2]; self.solver.n()]; units.len()];
+        for (j, corners) in moved.iter().enumerate() {
+            // Sorted by corner, so a face's corners are together.
+            for (f, of_face) in corners
+                .chunk_by(|a, b| a.0 / 3 == b.0 / 3)
+                .map(|g| (g[0].0 / 3, g))
+            {
+                let mut d = [[0.0; 2]; 3];
+                for &(c, x) in of_face {
+                    d[c % 3] = x;
+                }
+                let k = stiffness(mesh, f);
+                for a in 0..3 {
+                    let va = self.corner_var[3 * f + a];
+                    if va == NONE {
+                        continue;
+                    }
+                    let mut r = [0.0; 2];
+                    for bb in 0..3 {
+                        r[0] -= k[a][bb] * d[bb][0];
+                        r[1] -= k[a][bb] * d[bb][1];
+                    }
+                    let r = apply(rots.get(-(self.corner_rot[3 * f + a] as i64)), r);
+                    rhs[j][va as usize][0] += r[0];
+                    rhs[j][va as usize][1] += r[1];
+                }
+            }
+        }
+        let refs: Vec<&[[f64; 2]]> = rhs.iter().map(|r| r.as_slice()).collect();
+        let xs = self.solver.solve_many(&refs)?;
+        Ok(moved
+            .into_iter()
+            .zip(xs)
+            .map(|(moved, x)| GapResponse {
+                system: self,
+                rots,
+                moved: moved.into_iter().collect(),
+                x,
+            })
+            .collect())
     }
 
     /// Solves for the vertex unknowns with the gaps W fixed; returns ψ per corner (disk frame).
