@@ -69,6 +69,21 @@ const WIDE_MAX_ADDED_FOLDS: i64 = 30;
 const POWER_RINGS: [usize; 4] = [8, 12, 16, 24];
 /// How far from a branch point [`power_solve`] looks for the vertex that wraps twice.
 const PARTNER_RINGS: usize = 24;
+/// Then regions of [`PowerRegion::Radius`]: (radius in lattice units, rings around the centres).
+/// The rings make b lie between the lattice point and the rim, not on the region's edge, where
+/// the Möbius map would have to move its small faces far (with only the centres' fans: igea at
+/// 1500 vertices, N = 4, 10 → 8 mis-wound vertices; with 4 rings 8, with 8 rings 4; both, as
+/// here, 2).
+const POWER_RADII: [(f64, usize); 8] = [
+    (0.5, 4),
+    (0.75, 4),
+    (1.0, 4),
+    (1.5, 4),
+    (0.5, 8),
+    (0.75, 8),
+    (1.0, 8),
+    (1.5, 8),
+];
 
 /// How a rewinding round tries: its stiffenings in order, the most folds one rewinding may add,
 /// and whether a try must leave every other branch point's winding as it was (joining those
@@ -168,8 +183,12 @@ pub(crate) fn rewind(
         let centers: Vec<usize> = std::iter::once(b)
             .chain(double_wrap_near(mesh, space, uv, b))
             .collect();
-        for rings in POWER_RINGS {
-            let Some(y) = power_solve(mesh, rots, space, uv, cones[b], &centers, rings) else {
+        let regions = POWER_RINGS
+            .iter()
+            .map(|&r| PowerRegion::Rings(r))
+            .chain(POWER_RADII.iter().map(|&(r, k)| PowerRegion::Radius(r, k)));
+        for region in regions {
+            let Some(y) = power_solve(mesh, rots, space, uv, cones[b], &centers, region) else {
                 continue;
             };
             if trial_of(mesh, rots, space, uv, cones, &y, &[b], round.joint).kept_in(round) {
@@ -421,17 +440,28 @@ fn double_wrap_near(mesh: &TriMesh, space: &MapSpace, uv: &[[f64; 2]], b: usize)
 /// embedding there (uniform weights: over the 57 plain sweep solves they left 7 patched places
 /// against 13 with cotangent weights), which winds every vertex once; and ζ ↦ ζ^{1/α} carries
 /// them back. The branch point then turns by Θ and its neighbours by 2π wherever the embedding
-/// did not fold, and the repair starts from that. The region is `rings` rings around b and
-/// around the nearest vertex that wraps twice (where the turn b misses went; the mis-wound
-/// pattern the global step leaves; `centers`: b first, then that vertex if there is one), so
-/// that its rim winds by Θ.
+/// did not fold, and the repair starts from that.
 ///
-/// The embedding is solved with b free, then translated so that b lands on 0, the translation
-/// falling off linearly in rings to the rim: with b held at 0 in the solve, its neighbours stay
-/// off to one side where the rounding put the lattice point off the region's middle (the usual
-/// case), and its fan does not wind at all. Going back, each vertex takes the branch of ζ^{1/α}
-/// next to a placed neighbour's, and the rotation by a multiple of 2π / N between the face's
-/// chart and the branch is read at that neighbour.
+/// The embedding is solved with b free; b must then land on 0 (pinned at 0 in the solve, its
+/// neighbours stay off to one side where the rounding put the lattice point off the region's
+/// middle, the usual case, and its fan does not wind at all). Where the rim is star-shaped
+/// around 0 in ζ, the embedding is made with the rim on the unit circle at its angles (a convex
+/// rim, so no fold), b lands at some a inside, the Möbius map w = (x − a) / (1 − ā x) of the
+/// disc carries it to 0, each point is turned along the circle so that the rim points get
+/// their angles back (the inverse Möbius map's angle), and each ray from 0 is stretched to the
+/// rim's radius there: every step is one-to-one, so b's fan winds once around 0 in ζ (faces
+/// can still fold where a triangle is large against how far the steps move it). Otherwise the
+/// embedding is made on the rim itself and translated by −a, the translation falling off
+/// linearly along the rings from b to the rim. Going back, each vertex takes the branch of
+/// ζ^{1/α} next to a placed neighbour's, and the rotation by a multiple of 2π / N between the
+/// face's chart and the branch is read at that neighbour.
+///
+/// The regions ([`PowerRegion`]): rings around b and around the nearest vertex that wraps
+/// twice (`centers`: b first, then that vertex if there is one), so that the rim winds by Θ;
+/// where the rounding put b's lattice point far from b in the map (half a cell and more: the
+/// rings' rim passes close by it on one side and does not wind around it until the rings reach
+/// other singularities), the faces within a radius of the lattice point in the development and
+/// a few rings around the centres, so that b lies between the lattice point and the rim.
 ///
 /// `None` when the region holds another branch point, pinned vertex or the mesh boundary, is
 /// not a disc, or its rim does not wind Θ around the branch point.
@@ -442,7 +472,7 @@ pub(super) fn power_solve(
     uv: &[[f64; 2]],
     cone: f64,
     centers: &[usize],
-    rings: usize,
+    region: PowerRegion,
 ) -> Option<Vec<(usize, [f64; 2])>> {
     use std::f64::consts::{PI, TAU};
     let b = *centers.first()?;
@@ -451,16 +481,50 @@ pub(super) fn power_solve(
     }
     let unit = TAU / rots.n as f64;
     let alpha = TAU / cone;
-    let dist = rings_from(mesh, centers, rings);
-    let inner: Vec<usize> = dist
-        .iter()
-        .filter(|&(_, &d)| d < rings)
-        .map(|(&v, _)| v)
-        .collect();
-    // The region's faces: those at a vertex inside the rings; every other vertex of them is on
-    // the rim or inside (a vertex `rings` away with all its faces in the region).
-    let faces = faces_around(mesh, &inner);
+    let (faces, dev) = match region {
+        PowerRegion::Rings(rings) => {
+            let dist = rings_from(mesh, centers, rings);
+            let inner: Vec<usize> = dist
+                .iter()
+                .filter(|&(_, &d)| d < rings)
+                .map(|(&v, _)| v)
+                .collect();
+            // The region's faces: those at a vertex inside the rings; every other vertex of
+            // them is on the rim or inside (a vertex `rings` away with all its faces in it).
+            let faces = faces_around(mesh, &inner);
+            let in_region: HashSet<usize> = faces.iter().copied().collect();
+            let dev = develop(mesh, rots, space, uv, b, |g, _| in_region.contains(&g));
+            (faces, dev)
+        }
+        PowerRegion::Radius(radius, k) => {
+            // Grown through the development: a face joins when all its corners lie within
+            // `radius` of the branch point's lattice point, or when it is near a centre.
+            let near = rings_from(mesh, centers, k);
+            let dev = develop(
+                mesh,
+                rots,
+                space,
+                uv,
+                b,
+                |g, at: &dyn Fn(usize) -> [f64; 2]| {
+                    mesh.face(g)
+                        .iter()
+                        .any(|v| near.get(v).is_some_and(|&d| d < k))
+                        || (0..3).all(|a| {
+                            let z = at(3 * g + a);
+                            z[0].hypot(z[1]) < radius
+                        })
+                },
+            );
+            let mut faces: Vec<usize> = dev.keys().copied().collect();
+            faces.sort_unstable();
+            (faces, dev)
+        }
+    };
     let in_region: HashSet<usize> = faces.iter().copied().collect();
+    if dev.len() != faces.len() {
+        return None;
+    }
     let mut rim: HashMap<usize, usize> = HashMap::new();
     for &f in &faces {
         for a in 0..3 {
@@ -472,6 +536,9 @@ pub(super) fn power_solve(
                 return None;
             }
         }
+    }
+    if rim.contains_key(&b) {
+        return None;
     }
     let mut free: Vec<usize> = faces
         .iter()
@@ -486,39 +553,14 @@ pub(super) fn power_solve(
     }
     let slot: HashMap<usize, usize> = free.iter().enumerate().map(|(i, &v)| (v, i)).collect();
     let turn = |k: i64, x: [f64; 2]| apply(rots.get(k), x);
-    // The faces developed into the chart of a face of b's fan: in face f, a corner's position
-    // relative to the branch point is R^(−k_f) (ψ_c − p_f).
-    let f0 = mesh.face_of(mesh.vertex_halfedge(b));
-    let mut dev: HashMap<usize, ([f64; 2], i64)> = HashMap::new();
-    dev.insert(f0, (uv[mesh.vertex_halfedge(b)], 0));
-    let mut queue = std::collections::VecDeque::from([f0]);
-    while let Some(f) = queue.pop_front() {
-        let (p, k) = dev[&f];
-        for a in 0..3 {
-            let h = 3 * f + a;
-            let Some(t) = mesh.twin(h) else { continue };
-            let g = mesh.face_of(t);
-            if !in_region.contains(&g) || dev.contains_key(&g) {
-                continue;
-            }
-            // A corner of the edge that is an unknown carries the transition f → g.
-            let pair = [(h, mesh.next(t)), (mesh.next(h), t)]
-                .into_iter()
-                .find(|&(cf, cg)| space.var[cf] != NONE && space.var[cg] != NONE);
-            let Some((cf, cg)) = pair else { continue };
-            let r = i64::from(space.rot[cg]) - i64::from(space.rot[cf]);
-            let q = turn(r, [p[0] - space.consts[cf][0], p[1] - space.consts[cf][1]]);
-            dev.insert(
-                g,
-                (
-                    [space.consts[cg][0] + q[0], space.consts[cg][1] + q[1]],
-                    k + r,
-                ),
-            );
-            queue.push_back(g);
-        }
-    }
-    if dev.len() != faces.len() {
+    // How far inside each vertex is, for the translation of a rim that is not star-shaped.
+    let from_b = rings_within(mesh, &[b], &in_region);
+    let rim_vertices: Vec<usize> = rim.keys().copied().collect();
+    let from_rim = rings_within(mesh, &rim_vertices, &in_region);
+    if !free
+        .iter()
+        .all(|v| from_b.contains_key(v) && from_rim.contains_key(v))
+    {
         return None;
     }
     let rel = |c: usize, x: [f64; 2]| -> [f64; 2] {
@@ -560,10 +602,33 @@ pub(super) fn power_solve(
             (v, zeta_of(z[0].hypot(z[1]), t))
         })
         .collect();
-    // The Tutte embedding with the branch point free too (unknown n), then a translation
-    // that carries it to 0, falling off linearly in rings to the rim: pinned at 0 in the
-    // solve, the branch point's neighbours would stay off to one side where the rounding put
-    // the lattice point off the region's middle, and its fan would not wind at all.
+    // Whether the rim is star-shaped around 0 in ζ: its angle increases all along.
+    let star = {
+        let mut ok = true;
+        let (mut v, mut last) = (start, theta[&start]);
+        for _ in 0..rim.len() {
+            v = mesh.to(rim[&v]);
+            let t = if v == start {
+                theta[&start] + cone
+            } else {
+                theta[&v]
+            };
+            ok &= t > last;
+            last = t;
+        }
+        ok
+    };
+    let on_circle = |v: usize| {
+        let p = alpha * theta[&v];
+        [p.cos(), p.sin()]
+    };
+    let rim_at = |u: usize| -> Option<[f64; 2]> {
+        if star {
+            theta.contains_key(&u).then(|| on_circle(u))
+        } else {
+            rim_zeta.get(&u).copied()
+        }
+    };
     let n = free.len();
     let index = |u: usize| {
         if u == b {
@@ -582,7 +647,7 @@ pub(super) fn power_solve(
             if let Some(j) = index(u) {
                 lap.add(i, j, -1.0);
             } else {
-                let z = rim_zeta.get(&u)?;
+                let z = rim_at(u)?;
                 rhs[i][0] += z[0];
                 rhs[i][1] += z[1];
             }
@@ -595,12 +660,49 @@ pub(super) fn power_solve(
     let ys = solver
         .solve(&rhs.iter().map(|r| r[1]).collect::<Vec<_>>())
         .ok()?;
-    let shift = [xs[n], ys[n]];
+    // Where the branch point landed.
+    let a = [xs[n], ys[n]];
+    // The rim's radius in ζ by angle, for the stretch along rays.
+    let mut radii: Vec<(f64, f64)> = rim_zeta
+        .iter()
+        .map(|(v, z)| ((alpha * theta[v]).rem_euclid(TAU), z[0].hypot(z[1])))
+        .collect();
+    radii.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.total_cmp(&y.1)));
+    let radius_at = |t: f64| -> f64 {
+        let t = t.rem_euclid(TAU);
+        let k = radii.partition_point(|r| r.0 <= t);
+        let (lo, hi) = if k == 0 || k == radii.len() {
+            let (l, h) = (radii[radii.len() - 1], radii[0]);
+            (l, (h.0 + TAU, h.1))
+        } else {
+            (radii[k - 1], radii[k])
+        };
+        let t = if t < lo.0 { t + TAU } else { t };
+        let s = if hi.0 > lo.0 {
+            (t - lo.0) / (hi.0 - lo.0)
+        } else {
+            0.0
+        };
+        lo.1 + s * (hi.1 - lo.1)
+    };
     let zeta = |v: usize| -> [f64; 2] {
         match slot.get(&v) {
+            Some(&i) if star => {
+                // w = (x − a) / (1 − ā x), its angle back to the rim's, its ray stretched.
+                let x = [xs[i], ys[i]];
+                let w = cdiv(csub(x, a), csub([1.0, 0.0], cmul(conj(a), x)));
+                let (r, psi) = (w[0].hypot(w[1]), w[1].atan2(w[0]));
+                let e = [psi.cos(), psi.sin()];
+                let back = cdiv(cadd(e, a), cadd([1.0, 0.0], cmul(conj(a), e)));
+                let t = back[1].atan2(back[0]);
+                let s = r * radius_at(t);
+                [s * t.cos(), s * t.sin()]
+            }
             Some(&i) => {
-                let t = 1.0 - dist[&v].min(rings) as f64 / rings as f64;
-                [xs[i] - t * shift[0], ys[i] - t * shift[1]]
+                // Translated by −a, falling off linearly along the rings from b to the rim.
+                let (db, dr) = (from_b[&v] as f64, from_rim[&v] as f64);
+                let t = dr / (db + dr);
+                [xs[i] - t * a[0], ys[i] - t * a[1]]
             }
             None if v == b => [0.0, 0.0],
             None => rim_zeta[&v],
@@ -654,6 +756,108 @@ pub(super) fn power_solve(
         .zip(&y)
         .map(|(&v, yv)| yv.map(|yv| (v, yv)))
         .collect()
+}
+
+// Complex arithmetic on [re, im] for the Möbius map.
+fn cadd(x: [f64; 2], y: [f64; 2]) -> [f64; 2] {
+    [x[0] + y[0], x[1] + y[1]]
+}
+
+fn csub(x: [f64; 2], y: [f64; 2]) -> [f64; 2] {
+    [x[0] - y[0], x[1] - y[1]]
+}
+
+fn cmul(x: [f64; 2], y: [f64; 2]) -> [f64; 2] {
+    [x[0] * y[0] - x[1] * y[1], x[0] * y[1] + x[1] * y[0]]
+}
+
+fn conj(x: [f64; 2]) -> [f64; 2] {
+    [x[0], -x[1]]
+}
+
+fn cdiv(x: [f64; 2], y: [f64; 2]) -> [f64; 2] {
+    let d = y[0] * y[0] + y[1] * y[1];
+    [
+        (x[0] * y[0] + x[1] * y[1]) / d,
+        (x[1] * y[0] - x[0] * y[1]) / d,
+    ]
+}
+
+/// The region of a [`power_solve`].
+#[derive(Clone, Copy, Debug)]
+pub(super) enum PowerRegion {
+    /// The faces at vertices fewer than this many rings from the centres.
+    Rings(usize),
+    /// The faces whose corners all lie within this distance (in lattice units) of the branch
+    /// point's lattice point in the development, grown from the branch point, and those at
+    /// vertices fewer than this many rings from the centres.
+    Radius(f64, usize),
+}
+
+/// The faces around branch point `b` developed through the transitions into the chart of a face
+/// of its fan, grown breadth-first through the faces `accept` takes (given a corner's position
+/// relative to the branch point in that chart): in face f a corner's position relative to the
+/// branch point is R^(−k_f) (ψ_c − p_f).
+fn develop(
+    mesh: &TriMesh,
+    rots: &Rots,
+    space: &MapSpace,
+    uv: &[[f64; 2]],
+    b: usize,
+    accept: impl Fn(usize, &dyn Fn(usize) -> [f64; 2]) -> bool,
+) -> HashMap<usize, ([f64; 2], i64)> {
+    let turn = |k: i64, x: [f64; 2]| apply(rots.get(k), x);
+    let f0 = mesh.face_of(mesh.vertex_halfedge(b));
+    let mut dev: HashMap<usize, ([f64; 2], i64)> = HashMap::new();
+    dev.insert(f0, (uv[mesh.vertex_halfedge(b)], 0));
+    let mut queue = std::collections::VecDeque::from([f0]);
+    while let Some(f) = queue.pop_front() {
+        let (p, k) = dev[&f];
+        for a in 0..3 {
+            let h = 3 * f + a;
+            let Some(t) = mesh.twin(h) else { continue };
+            let g = mesh.face_of(t);
+            if dev.contains_key(&g) {
+                continue;
+            }
+            // A corner of the edge that is an unknown carries the transition f → g.
+            let pair = [(h, mesh.next(t)), (mesh.next(h), t)]
+                .into_iter()
+                .find(|&(cf, cg)| space.var[cf] != NONE && space.var[cg] != NONE);
+            let Some((cf, cg)) = pair else { continue };
+            let r = i64::from(space.rot[cg]) - i64::from(space.rot[cf]);
+            let q = turn(r, [p[0] - space.consts[cf][0], p[1] - space.consts[cf][1]]);
+            let pg = [space.consts[cg][0] + q[0], space.consts[cg][1] + q[1]];
+            let kg = k + r;
+            let at = |c: usize| turn(-kg, [uv[c][0] - pg[0], uv[c][1] - pg[1]]);
+            if accept(g, &at) {
+                dev.insert(g, (pg, kg));
+                queue.push_back(g);
+            }
+        }
+    }
+    dev
+}
+
+/// Ring distances from `from` through the faces of `region` (every vertex of them).
+fn rings_within(mesh: &TriMesh, from: &[usize], region: &HashSet<usize>) -> HashMap<usize, usize> {
+    let mut dist: HashMap<usize, usize> = from.iter().map(|&c| (c, 0)).collect();
+    let mut queue: std::collections::VecDeque<usize> = from.iter().copied().collect();
+    while let Some(v) = queue.pop_front() {
+        for h in mesh.outgoing(v) {
+            if !region.contains(&mesh.face_of(h)) {
+                continue;
+            }
+            let d = dist[&v] + 1;
+            for w in mesh.face(mesh.face_of(h)) {
+                if let std::collections::hash_map::Entry::Vacant(e) = dist.entry(w) {
+                    e.insert(d);
+                    queue.push_back(w);
+                }
+            }
+        }
+    }
+    dist
 }
 
 /// Ring distances from `centers` up to `rings`.
