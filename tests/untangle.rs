@@ -160,6 +160,17 @@ fn check(name: &str, mesh: &TriMesh, p: &Parameterization, plain: &Parameterizat
                 assert!(((s * x).round() - s * x).abs() < 1e-6, "{name}: {q:?}");
             }
         }
+        if n == 6 {
+            // Every branch point on G6, ±2/6 and ±3/6 too (gaps of their loops on the
+            // sublattices `Lattice::TurnedG6`, `Lattice::TwoG6`).
+            let q = p.uv[h];
+            assert!(
+                Lattice::G6.distance(q) < 1e-6,
+                "{name}: branch point {} of index {} at {q:?}",
+                s.vertex,
+                s.index
+            );
+        }
     }
 }
 

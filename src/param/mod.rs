@@ -530,6 +530,22 @@ impl QuadCover {
                     }
                 })
                 .collect(),
+            // Branch points of ±2/6 and ±3/6 on G6 too, so that each is one vertex of the
+            // triangle remesh (off G6 a grid edge runs through it and is patched).
+            Lattice::G6 => cut
+                .loop_end_holonomies(mesh)
+                .into_iter()
+                .map(|h| {
+                    let half = h.contains(&3);
+                    let third = h.iter().any(|&h| h == 2 || h == 4);
+                    match (half, third) {
+                        (true, true) => Lattice::TwoTurnedG6,
+                        (true, false) => Lattice::TwoG6,
+                        (false, true) => Lattice::TurnedG6,
+                        (false, false) => Lattice::G6,
+                    }
+                })
+                .collect(),
             _ => vec![lattice; cut.generators.len()],
         };
         Ok(QuadCover {

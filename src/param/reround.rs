@@ -7,7 +7,9 @@
 use super::CancelCheck;
 use super::constrained::{self, ConstrainedStep};
 use super::constraints::Traced;
-use super::{LocalSolution, ParamError, Parameterization, QuadCover, Rerounded, cut, untangle};
+use super::{
+    Lattice, LocalSolution, ParamError, Parameterization, QuadCover, Rerounded, cut, untangle,
+};
 use crate::mesh::TriMesh;
 
 /// Gaps tried per round when the repair left folds ([`QuadCover::reround`]), the best
@@ -203,7 +205,14 @@ impl QuadCover {
         let mut ranked: Vec<((usize, usize, f64), Gaps)> = Vec::new();
         for (n, &k) in candidates.iter().enumerate() {
             let (d0, d1) = (&responses[2 * n], &responses[2 * n + 1]);
-            for d in self.lattice.steps() {
+            // Steps that keep the gap on its lattice: the coarser of the two.
+            let steps = match self.gap_lattices[k] {
+                Lattice::TwoG6 | Lattice::TurnedG6 | Lattice::TwoTurnedG6 => {
+                    self.gap_lattices[k].steps()
+                }
+                _ => self.lattice.steps(),
+            };
+            for d in steps {
                 let mut g = gaps.to_vec();
                 g[k] = [g[k][0] + d[0], g[k][1] + d[1]];
                 let shift = |c: usize| -> [f64; 2] {

@@ -157,6 +157,15 @@ pub enum Lattice {
     D2,
     /// Eisenstein integers a(1,0) + b(1/2, √3/2) (hexagons, N = 6).
     G6,
+    /// 2 G6: enough for the gaps of loops ending at a half-turn branch point (±3/6) to put it
+    /// on G6 (its fixed point is ½ (I − R_π)⁻¹ t = t / 2).
+    TwoG6,
+    /// (1 − e^{2πi/3}) G6 = √3 R_{−30°} G6, of index 3: the same for a third-turn branch point
+    /// (±2/6), whose fixed point is (I − R_{2π/3})⁻¹ t.
+    TurnedG6,
+    /// Both at once (loops ending at a half-turn and a third-turn branch point):
+    /// 2√3 R_{−30°} G6.
+    TwoTurnedG6,
 }
 
 impl Lattice {
@@ -198,6 +207,17 @@ impl Lattice {
                 }
                 best
             }
+            Lattice::TwoG6 | Lattice::TurnedG6 | Lattice::TwoTurnedG6 => {
+                // G6 in the frame where the sublattice is G6.
+                let (scale, turn) = self.g6_frame();
+                let (c, s) = (turn.cos(), turn.sin());
+                let q = [
+                    (c * p[0] + s * p[1]) / scale,
+                    (-s * p[0] + c * p[1]) / scale,
+                ];
+                let r = Lattice::G6.nearest(q);
+                [scale * (c * r[0] - s * r[1]), scale * (s * r[0] + c * r[1])]
+            }
         }
     }
     /// The shortest non-zero lattice vectors (the neighbours of 0).
@@ -206,12 +226,26 @@ impl Lattice {
             Lattice::Z2 => vec![[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]],
             Lattice::TwoZ2 => vec![[2.0, 0.0], [-2.0, 0.0], [0.0, 2.0], [0.0, -2.0]],
             Lattice::D2 => vec![[1.0, 1.0], [-1.0, -1.0], [1.0, -1.0], [-1.0, 1.0]],
-            Lattice::G6 => (0..6)
-                .map(|k| {
-                    let a = std::f64::consts::FRAC_PI_3 * k as f64;
-                    [a.cos(), a.sin()]
-                })
-                .collect(),
+            Lattice::G6 | Lattice::TwoG6 | Lattice::TurnedG6 | Lattice::TwoTurnedG6 => {
+                let (scale, turn) = self.g6_frame();
+                (0..6)
+                    .map(|k| {
+                        let a = std::f64::consts::FRAC_PI_3 * k as f64 + turn;
+                        [scale * a.cos(), scale * a.sin()]
+                    })
+                    .collect()
+            }
+        }
+    }
+    /// A G6 sublattice as G6 scaled by `scale` and turned by `turn` (radians).
+    fn g6_frame(self) -> (f64, f64) {
+        let s3 = 3f64.sqrt();
+        let turned = -std::f64::consts::FRAC_PI_6;
+        match self {
+            Lattice::TwoG6 => (2.0, 0.0),
+            Lattice::TurnedG6 => (s3, turned),
+            Lattice::TwoTurnedG6 => (2.0 * s3, turned),
+            _ => (1.0, 0.0),
         }
     }
     /// The lattice every gap and transition lies in: Z² would be enough for the map to be
@@ -220,6 +254,7 @@ impl Lattice {
     pub fn transitions(self) -> Lattice {
         match self {
             Lattice::TwoZ2 => Lattice::D2,
+            Lattice::TwoG6 | Lattice::TurnedG6 | Lattice::TwoTurnedG6 => Lattice::G6,
             l => l,
         }
     }
@@ -276,6 +311,71 @@ mod tests {
         for l in [Lattice::Z2, Lattice::TwoZ2, Lattice::D2, Lattice::G6] {
             for s in l.steps() {
                 assert!(l.distance(s) < 1e-12, "{l:?} step {s:?}");
+            }
+        }
+    }
+
+    /// The G6 sublattices: each rounding lands in G6 and in the sublattice, is the nearest of
+    /// the sublattice's points around (brute force over G6), and the half-turn (third-turn)
+    /// monodromy x ↦ R x + t with t in 2 G6 ((1 − e^{2πi/3}) G6) fixes a point of G6, while
+    /// for some t in G6 it does not.
+    #[test]
+    fn hexagonal_sublattices_put_half_and_third_turn_fixed_points_on_g6() {
+        let mut state = 0x2545f4914f6cdd1du64;
+        let mut rand = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 20.0 - 10.0
+        };
+        let s3 = 3f64.sqrt();
+        let on_g6 = |q: [f64; 2]| Lattice::G6.distance(q) < 1e-9;
+        // (1 − R)⁻¹ t for a rotation by `angle`.
+        let fixed = |angle: f64, t: [f64; 2]| {
+            let (c, s) = (angle.cos(), angle.sin());
+            let (a, b, d) = (1.0 - c, s, 1.0 - c);
+            let det = a * d + b * b;
+            [(d * t[0] - b * t[1]) / det, (b * t[0] + a * t[1]) / det]
+        };
+        let g6: Vec<[f64; 2]> = (-16..=16)
+            .flat_map(|a| (-16..=16).map(move |b| [a as f64 + 0.5 * b as f64, b as f64 * s3 / 2.0]))
+            .collect();
+        let pi = std::f64::consts::PI;
+        for (lattice, angles) in [
+            (Lattice::TwoG6, vec![pi]),
+            (Lattice::TurnedG6, vec![2.0 * pi / 3.0, -2.0 * pi / 3.0]),
+            (Lattice::TwoTurnedG6, vec![pi, 2.0 * pi / 3.0]),
+        ] {
+            let members: Vec<[f64; 2]> = g6
+                .iter()
+                .copied()
+                .filter(|&q| lattice.distance(q) < 1e-9)
+                .collect();
+            assert!(
+                members.len() > 10 && members.len() < g6.len() / 2,
+                "{lattice:?}"
+            );
+            for step in lattice.steps() {
+                assert!(on_g6(step) && lattice.distance(step) < 1e-9, "{lattice:?}");
+            }
+            for _ in 0..500 {
+                let p = [rand(), rand()];
+                let q = lattice.nearest(p);
+                assert!(on_g6(q) && lattice.distance(q) < 1e-9, "{lattice:?}: {q:?}");
+                let d = (q[0] - p[0]).hypot(q[1] - p[1]);
+                for m in &members {
+                    assert!(d <= (m[0] - p[0]).hypot(m[1] - p[1]) + 1e-9, "{lattice:?}");
+                }
+                for &angle in &angles {
+                    assert!(
+                        on_g6(fixed(angle, q)),
+                        "{lattice:?}: t = {q:?}, turn {angle}"
+                    );
+                }
+            }
+            // Plain G6 translations do not do it: [1, 0] is fixed off G6 by a half or third turn.
+            for &angle in &angles {
+                assert!(!on_g6(fixed(angle, [1.0, 0.0])), "{lattice:?}");
             }
         }
     }
