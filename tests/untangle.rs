@@ -216,13 +216,9 @@ fn the_repair_rewinds_branch_points() {
 /// kept.
 #[test]
 fn short_wound_branch_points_are_rewound_through_the_power_map() {
-    if !Path::new(MESHES).exists() {
-        eprintln!("skipping: {MESHES} not found");
+    let Some(mesh) = meshes::load_shared("cerebral-vessels.obj") else {
         return;
-    }
-    let mesh = quadcover::load::load_mesh(&Path::new(MESHES).join("cerebral-vessels.obj"))
-        .unwrap()
-        .mesh;
+    };
     let (p, plain) = solve_both(&mesh, 2, None, false);
     // The global step leaves many; the stiff rewindings alone left two.
     assert!(miswound(&mesh, &plain).len() >= 10);
@@ -238,13 +234,9 @@ fn short_wound_branch_points_are_rewound_through_the_power_map() {
 /// vertices and 5 patched places with ring regions only; now 2 and 1).
 #[test]
 fn branch_points_rounded_far_away_are_rewound_around_their_lattice_point() {
-    if !Path::new(MESHES).exists() {
-        eprintln!("skipping: {MESHES} not found");
+    let Some(mesh) = meshes::load_shared("igea.obj") else {
         return;
-    }
-    let mesh = quadcover::load::load_mesh(&Path::new(MESHES).join("igea.obj"))
-        .unwrap()
-        .mesh;
+    };
     let (p, plain) = solve_both(&mesh, 4, Some(1500), true);
     assert!(miswound(&mesh, &plain).len() >= 50);
     assert_eq!(p.flipped_faces, 0);

@@ -268,18 +268,22 @@ impl Lattice {
 mod tests {
     use super::Lattice;
 
+    /// A deterministic scatter of numbers in [−10, 10) (xorshift from `seed`).
+    fn scatter(mut state: u64) -> impl FnMut() -> f64 {
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 20.0 - 10.0
+        }
+    }
+
     /// D₂'s nearest point is in D₂, no farther than 1, and no farther than any D₂ point of a
     /// neighbourhood (brute force); a ±1/4 monodromy's fixed point is on Z² for every
     /// translation in D₂ and off it for every other one, which is why D₂ suffices there.
     #[test]
     fn checkerboard_rounding_and_quarter_turn_fixed_points() {
-        let mut state = 0x9e3779b97f4a7c15u64;
-        let mut rand = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 20.0 - 10.0
-        };
+        let mut rand = scatter(0x9e3779b97f4a7c15);
         for _ in 0..2000 {
             let p = [rand(), rand()];
             let q = Lattice::D2.nearest(p);
@@ -321,13 +325,7 @@ mod tests {
     /// for some t in G6 it does not.
     #[test]
     fn hexagonal_sublattices_put_half_and_third_turn_fixed_points_on_g6() {
-        let mut state = 0x2545f4914f6cdd1du64;
-        let mut rand = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 20.0 - 10.0
-        };
+        let mut rand = scatter(0x2545f4914f6cdd1d);
         let s3 = 3f64.sqrt();
         let on_g6 = |q: [f64; 2]| Lattice::G6.distance(q) < 1e-9;
         // (1 − R)⁻¹ t for a rotation by `angle`.

@@ -481,7 +481,7 @@ pub(super) fn power_solve(
     }
     let unit = TAU / rots.n as f64;
     let alpha = TAU / cone;
-    let (faces, dev) = match region {
+    let (faces, in_region, dev) = match region {
         PowerRegion::Rings(rings) => {
             let dist = rings_from(mesh, centers, rings);
             let inner: Vec<usize> = dist
@@ -494,7 +494,7 @@ pub(super) fn power_solve(
             let faces = faces_around(mesh, &inner);
             let in_region: HashSet<usize> = faces.iter().copied().collect();
             let dev = develop(mesh, rots, space, uv, b, |g, _| in_region.contains(&g));
-            (faces, dev)
+            (faces, in_region, dev)
         }
         PowerRegion::Radius(radius, k) => {
             // Grown through the development: a face joins when all its corners lie within
@@ -518,10 +518,10 @@ pub(super) fn power_solve(
             );
             let mut faces: Vec<usize> = dev.keys().copied().collect();
             faces.sort_unstable();
-            (faces, dev)
+            let in_region: HashSet<usize> = faces.iter().copied().collect();
+            (faces, in_region, dev)
         }
     };
-    let in_region: HashSet<usize> = faces.iter().copied().collect();
     if dev.len() != faces.len() {
         return None;
     }
@@ -574,6 +574,9 @@ pub(super) fn power_solve(
         let z = rel(rim[&start], uv[rim[&start]]);
         z[1].atan2(z[0])
     });
+    // Whether the angle increases all along (the rim star-shaped around 0 in ζ); the step
+    // back to the start is judged against the start's angle plus the cone angle.
+    let (mut increasing, mut last) = (true, angle);
     for _ in 0..rim.len() {
         theta.insert(v, angle);
         let h = rim[&v];
@@ -581,15 +584,18 @@ pub(super) fn power_solve(
         if x[0].hypot(x[1]) == 0.0 || y[0].hypot(y[1]) == 0.0 {
             return None;
         }
+        last = angle;
         angle += (x[0] * y[1] - x[1] * y[0]).atan2(x[0] * y[0] + x[1] * y[1]);
         v = mesh.to(h);
         if v == start {
             break;
         }
+        increasing &= angle > last;
     }
     if v != start || theta.len() != rim.len() || !((angle - theta[&start] - cone).abs() <= 0.25) {
         return None;
     }
+    let star = increasing && theta[&start] + cone > last;
     // ζ on the rim, then the Tutte embedding inside.
     let zeta_of = |r: f64, t: f64| {
         let s = r.powf(alpha);
@@ -602,22 +608,6 @@ pub(super) fn power_solve(
             (v, zeta_of(z[0].hypot(z[1]), t))
         })
         .collect();
-    // Whether the rim is star-shaped around 0 in ζ: its angle increases all along.
-    let star = {
-        let mut ok = true;
-        let (mut v, mut last) = (start, theta[&start]);
-        for _ in 0..rim.len() {
-            v = mesh.to(rim[&v]);
-            let t = if v == start {
-                theta[&start] + cone
-            } else {
-                theta[&v]
-            };
-            ok &= t > last;
-            last = t;
-        }
-        ok
-    };
     let on_circle = |v: usize| {
         let p = alpha * theta[&v];
         [p.cos(), p.sin()]
