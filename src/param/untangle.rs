@@ -410,7 +410,33 @@ pub(crate) fn folded(uv: &[[f64; 2]]) -> Vec<usize> {
 
 /// Whether face f's texture triangle is positive and not degenerate (see [`folded`]).
 pub(crate) fn positive(uv: &[[f64; 2]], f: usize) -> bool {
-    uv_area(uv, f) > degenerate_area(uv, f)
+    let area = uv_area(uv, f);
+    // The threshold is never negative, and its edges are at most 1.5 times their longer
+    // coordinate difference: most faces are decided without the three square roots (the
+    // repair counts the folds of 1.1 M faces a dozen times).
+    if !(area > 0.0) {
+        return false;
+    }
+    if area > degenerate_bound(uv, f) {
+        return true;
+    }
+    area > degenerate_area(uv, f)
+}
+
+/// An upper bound of [`degenerate_area`] without square roots.
+fn degenerate_bound(uv: &[[f64; 2]], f: usize) -> f64 {
+    let c = [uv[3 * f], uv[3 * f + 1], uv[3 * f + 2]];
+    let scale = 1.0
+        + c.iter()
+            .map(|p| p[0].abs().max(p[1].abs()))
+            .fold(0.0, f64::max);
+    let longest = (0..3)
+        .map(|k| {
+            let (a, b) = (c[k], c[(k + 1) % 3]);
+            (b[0] - a[0]).abs().max((b[1] - a[1]).abs())
+        })
+        .fold(0.0, f64::max);
+    0.5 * 1e-9 * scale * 1.5 * longest
 }
 
 /// The area below which face f's texture triangle is degenerate: half its longest edge times
@@ -820,17 +846,15 @@ pub(crate) fn repair(
     let mean_area = mean_target_area(mesh, &reference);
     let guide_area = mean_target_area(mesh, guide);
     let Some(cones) = cones else {
-        let stuck = unfold(
+        let at = Regions {
             mesh,
             rots,
             space,
-            &reference,
-            &[],
+            frames: &reference,
             mean_area,
-            &[],
-            uv,
-            cancel,
-        );
+            cones: &[],
+        };
+        let stuck = at.repair(&[], uv, cancel);
         return Repair {
             before,
             stuck,
@@ -861,32 +885,29 @@ pub(crate) fn repair(
     } else {
         reference
     };
-    let mut stuck = unfold(
-        mesh, rots, space, &reference, cones, mean_area, &turned, uv, cancel,
-    );
+    let at = Regions {
+        mesh,
+        rots,
+        space,
+        frames: &reference,
+        mean_area,
+        cones,
+    };
+    let mut unfolded = at.unfold(&turned, uv, cancel);
     // The rewound start may leave folds that the global step's map does not (seen at N = 6
-    // at coarse densities): then the better of both.
+    // at coarse densities): then the better of both, and only that one relaxed.
     if rewound > 0 && !folded(uv).is_empty() && !cancel() {
         let mut plain = start;
-        let other = unfold(
-            mesh,
-            rots,
-            space,
-            &reference,
-            cones,
-            mean_area,
-            &[],
-            &mut plain,
-            cancel,
-        );
+        let other = at.unfold(&[], &mut plain, cancel);
         if folded(&plain).len() <= folded(uv).len() {
             uv.copy_from_slice(&plain);
-            (stuck, rewound) = (other, 0);
+            (unfolded, rewound) = (other, 0);
         }
     }
+    at.relax_repaired(&unfolded, uv, cancel);
     Repair {
         before,
-        stuck,
+        stuck: unfolded.stuck,
         rewound,
         ms: if before > 0 || rewound > 0 {
             t.elapsed().as_secs_f64() * 1e3
@@ -921,7 +942,14 @@ pub(crate) fn rewind_left(
         return 0;
     }
     let reference = references(mesh, space, disk, guide);
-    let mean_area = mean_target_area(mesh, &reference);
+    let at = Regions {
+        mesh,
+        rots,
+        space,
+        frames: &reference,
+        mean_area: mean_target_area(mesh, &reference),
+        cones,
+    };
     let guide_area = mean_target_area(mesh, guide);
     for _ in 0..WIDE_ROUNDS {
         if left.is_empty() || cancel() {
@@ -942,9 +970,7 @@ pub(crate) fn rewind_left(
         if turned.is_empty() {
             break;
         }
-        unfold(
-            mesh, rots, space, &reference, cones, mean_area, &turned, &mut trial, cancel,
-        );
+        at.repair(&turned, &mut trial, cancel);
         let after = rewind::wrongly_wound(mesh, space, &trial, cones);
         if !folded(&trial).is_empty() || after.len() >= left.len() {
             break;
@@ -966,79 +992,100 @@ fn mean_target_area(mesh: &TriMesh, frames: &[[DVec3; 2]]) -> f64 {
         / mesh.n_faces() as f64
 }
 
-/// The repair proper from `uv` (module docs); returns the stuck faces.
-#[allow(clippy::too_many_arguments)]
-fn unfold(
-    mesh: &TriMesh,
-    rots: &Rots,
-    space: &MapSpace,
-    disk: &[[DVec3; 2]],
-    cones: &[f64],
-    mean_area: f64,
-    rewound: &[usize],
-    uv: &mut [[f64; 2]],
-    cancel: super::CancelCheck<'_>,
-) -> Vec<usize> {
-    let all = folded(uv);
-    if all.is_empty() && rewound.is_empty() {
-        return Vec::new();
-    }
-    let (stuck_faces, mut bad): (Vec<usize>, Vec<usize>) = all
-        .into_iter()
-        .partition(|&f| stuck(mesh, rots, space, uv, f));
-    // The relaxation also spreads what rewinding a branch point twisted, folded or not
-    // (measured over the 72 cases of `tests/untangle.rs`: p99-distortion misses 33 → 24; over
-    // 4 rings only, 31).
-    let mut seeds = bad.clone();
-    seeds.extend(
-        rewound
-            .iter()
-            .flat_map(|&b| mesh.outgoing(b).map(|h| mesh.face_of(h))),
-    );
-    seeds.sort_unstable();
-    seeds.dedup();
-    let at = Regions {
-        mesh,
-        rots,
-        space,
-        frames: disk,
-        mean_area,
-        cones,
-    };
-    let solve_around =
-        |uv: &mut [[f64; 2]], seeds: &[usize], rings: usize, relax: bool, keep: bool| {
-            at.solve(uv, seeds, rings, relax, keep, cancel)
-        };
-    // Growing regions around the folds left.
-    let grow = |uv: &mut [[f64; 2]], mut bad: Vec<usize>, keep: bool| -> Vec<usize> {
-        let mut stalled = 0;
-        for rings in RINGS {
-            if bad.is_empty() || stalled >= 2 || cancel() {
-                break;
-            }
-            let left = bad.len();
-            solve_around(uv, &bad, rings, false, keep);
-            bad = folded(uv)
-                .into_iter()
-                .filter(|f| stuck_faces.binary_search(f).is_err())
-                .collect();
-            // Two growths in a row without fewer folds: larger regions will not do better.
-            stalled = if bad.len() < left { 0 } else { stalled + 1 };
+/// What [`Regions::unfold`] leaves for [`Regions::relax_repaired`]: the stuck faces and the
+/// faces whose surroundings are relaxed.
+struct Unfolded {
+    stuck: Vec<usize>,
+    seeds: Vec<usize>,
+}
+
+impl Regions<'_> {
+    /// The repair proper from `uv` (module docs) without its last relaxation
+    /// ([`Self::relax_repaired`]), so that of two starts only the better one is relaxed (the
+    /// relaxation never changes how many faces are folded: it solves fold-free regions only,
+    /// under the barrier).
+    fn unfold(
+        &self,
+        rewound: &[usize],
+        uv: &mut [[f64; 2]],
+        cancel: super::CancelCheck<'_>,
+    ) -> Unfolded {
+        let (mesh, rots, space) = (self.mesh, self.rots, self.space);
+        let all = folded(uv);
+        if all.is_empty() && rewound.is_empty() {
+            return Unfolded {
+                stuck: Vec::new(),
+                seeds: Vec::new(),
+            };
         }
-        bad
-    };
-    bad = grow(uv, bad, true);
-    // No fold comes first: where keeping every branch point's winding leaves folds, a region
-    // may unwind one (it is then reported as mis-wound).
-    if !bad.is_empty() && !cancel() {
-        grow(uv, bad, false);
+        let (stuck_faces, mut bad): (Vec<usize>, Vec<usize>) = all
+            .into_iter()
+            .partition(|&f| stuck(mesh, rots, space, uv, f));
+        // The relaxation also spreads what rewinding a branch point twisted, folded or not
+        // (measured over the 72 cases of `tests/untangle.rs`: p99-distortion misses 33 → 24;
+        // over 4 rings only, 31).
+        let mut seeds = bad.clone();
+        seeds.extend(
+            rewound
+                .iter()
+                .flat_map(|&b| mesh.outgoing(b).map(|h| mesh.face_of(h))),
+        );
+        seeds.sort_unstable();
+        seeds.dedup();
+        // Growing regions around the folds left.
+        let grow = |uv: &mut [[f64; 2]], mut bad: Vec<usize>, keep: bool| -> Vec<usize> {
+            let mut stalled = 0;
+            for rings in RINGS {
+                if bad.is_empty() || stalled >= 2 || cancel() {
+                    break;
+                }
+                let left = bad.len();
+                self.solve(uv, &bad, rings, false, keep, cancel);
+                bad = folded(uv)
+                    .into_iter()
+                    .filter(|f| stuck_faces.binary_search(f).is_err())
+                    .collect();
+                // Two growths in a row without fewer folds: larger regions will not do better.
+                stalled = if bad.len() < left { 0 } else { stalled + 1 };
+            }
+            bad
+        };
+        bad = grow(uv, bad, true);
+        // No fold comes first: where keeping every branch point's winding leaves folds, a
+        // region may unwind one (it is then reported as mis-wound).
+        if !bad.is_empty() && !cancel() {
+            grow(uv, bad, false);
+        }
+        Unfolded {
+            stuck: stuck_faces,
+            seeds,
+        }
     }
-    // Relaxation of the repaired places (fold-free regions only), injectivity kept by the
-    // barrier and the line search.
-    if !cancel() {
-        solve_around(uv, &seeds, RELAX_RINGS, true, true);
+
+    /// Relaxation of the places [`Self::unfold`] repaired (fold-free regions only),
+    /// injectivity kept by the barrier and the line search.
+    fn relax_repaired(
+        &self,
+        unfolded: &Unfolded,
+        uv: &mut [[f64; 2]],
+        cancel: super::CancelCheck<'_>,
+    ) {
+        if !unfolded.seeds.is_empty() && !cancel() {
+            self.solve(uv, &unfolded.seeds, RELAX_RINGS, true, true, cancel);
+        }
     }
-    stuck_faces
+
+    /// [`Self::unfold`], then [`Self::relax_repaired`]; returns the stuck faces.
+    fn repair(
+        &self,
+        rewound: &[usize],
+        uv: &mut [[f64; 2]],
+        cancel: super::CancelCheck<'_>,
+    ) -> Vec<usize> {
+        let unfolded = self.unfold(rewound, uv, cancel);
+        self.relax_repaired(&unfolded, uv, cancel);
+        unfolded.stuck
+    }
 }
 
 /// What the regional solves of the repair share: the map space, the target frames and the
@@ -1946,6 +1993,40 @@ fn solve_region(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The shortcut in [`positive`] decides as the threshold itself does, on triangles whose
+    /// area lies anywhere from below to above it (a bound under the threshold, e.g. the longer
+    /// coordinate difference without the factor 1.5, fails on the diagonal ones).
+    #[test]
+    fn positive_decides_as_the_degenerate_threshold() {
+        let mut mismatches = 0;
+        for i in 0..20_000u64 {
+            let r = |k: u64| {
+                let x = (i * 7919 + k * 104_729).wrapping_mul(2_654_435_761) % 1_000_003;
+                x as f64 / 1_000_003.0
+            };
+            let (scale, angle) = (10f64.powf(6.0 * r(1) - 3.0), std::f64::consts::TAU * r(2));
+            let a = [1e3 * (r(3) - 0.5), 1e3 * (r(4) - 0.5)];
+            let b = [a[0] + scale * angle.cos(), a[1] + scale * angle.sin()];
+            // The third corner off the edge ab by a height that puts the area at 0.3–3 times
+            // the threshold, on either side.
+            let uv0 = [a, b, b];
+            let threshold = degenerate_area(&uv0, 0);
+            let len = scale;
+            let height = 2.0 * threshold * (0.3 + 2.7 * r(5)) / len;
+            let side = if i % 2 == 0 { 1.0 } else { -1.0 };
+            let t = r(6);
+            let c = [
+                a[0] + t * (b[0] - a[0]) - side * height * angle.sin(),
+                a[1] + t * (b[1] - a[1]) + side * height * angle.cos(),
+            ];
+            let uv = [a, b, c];
+            if positive(&uv, 0) != (uv_area(&uv, 0) > degenerate_area(&uv, 0)) {
+                mismatches += 1;
+            }
+        }
+        assert_eq!(mismatches, 0);
+    }
 
     /// A fan of 12 positive texture triangles around an interior vertex of index 0 that wraps
     /// twice (720°) is mis-wound although nothing is folded; wrapping once it is not; and a
