@@ -231,7 +231,9 @@ fn short_wound_branch_points_are_rewound_through_the_power_map() {
 /// rings around them pass close by the lattice point on one side and reach other singularities
 /// before they wind around it. Regions around the lattice point, with the Möbius step that
 /// carries the branch point onto it, rewind them (igea at 1500 vertices, N = 4: 10 mis-wound
-/// vertices and 5 patched places with ring regions only; now 2 and 1).
+/// vertices and 5 patched places with ring regions only; then 2 and 1). The last pair was a
+/// −1/4 branch point whose lattice point the rounding also gave a +1/4 singularity: no map
+/// winds both, and the windings re-rounding now parts such pairs first (none left).
 #[test]
 fn branch_points_rounded_far_away_are_rewound_around_their_lattice_point() {
     let Some(mesh) = meshes::load_shared("igea.obj") else {
@@ -241,7 +243,7 @@ fn branch_points_rounded_far_away_are_rewound_around_their_lattice_point() {
     assert!(miswound(&mesh, &plain).len() >= 50);
     assert_eq!(p.flipped_faces, 0);
     let left = miswound(&mesh, &p);
-    assert!(left.len() <= 2, "mis-wound vertices left: {left:?}");
+    assert!(left.is_empty(), "mis-wound vertices left: {left:?}");
     check("igea N = 4 at 1500 vertices", &mesh, &p, &plain);
 }
 
