@@ -38,8 +38,9 @@ const WINDING_RANK_RINGS: usize = 4;
 /// the p99 from 2.49 (the crowded try it spared) to 3.97.
 const WINDING_P99_SLACK: f64 = 1.05;
 /// Faces walked from a wrongly wound branch point, through one seamless chart, in search of a
-/// singularity rounded onto its lattice point ([`collided`]).
-const COLLISION_FACES: usize = 600;
+/// singularity rounded onto its lattice point ([`collided`]): the far one of igea's pairs at
+/// the default density sits about 1 500 faces away (4.7 cells in space); 600 missed it.
+const COLLISION_FACES: usize = 5000;
 
 /// Gaps per cut path.
 type Gaps = Vec<[f64; 2]>;
