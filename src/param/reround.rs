@@ -321,6 +321,10 @@ impl QuadCover {
                     let together = pairs.iter().filter(|pair| !apart(pair)).count();
                     Some((wound + 2 * together, folds))
                 })?;
+            let p99 = |uv: &[[f64; 2]]| {
+                super::metrics::conformal_p99(&super::metrics::jacobians(mesh, uv))
+            };
+            let p99_now = p99(uv);
             let mut kept = false;
             for g in ranked.into_iter().take(REROUND_TRIES) {
                 if cancel() {
@@ -333,12 +337,9 @@ impl QuadCover {
                     .collect();
                 let mut r = self.untangle(mesh, local, &space, Some(cones), &mut u, cancel);
                 self.rewind_left(mesh, local, &space, cones, &mut u, &mut r, cancel);
-                let p99 = |uv: &[[f64; 2]]| {
-                    super::metrics::conformal_p99(&super::metrics::jacobians(mesh, uv))
-                };
                 if untangle::folded(&u).is_empty()
                     && untangle::miswound(mesh, &u, cones).len() < wrong.len()
-                    && p99(&u) <= WINDING_P99_SLACK * p99(uv)
+                    && p99(&u) <= WINDING_P99_SLACK * p99_now
                 {
                     *gaps = g;
                     *uv = u;
