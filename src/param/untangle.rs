@@ -68,6 +68,13 @@ const WIDE_ROUNDS: usize = 3;
 const THETA: f64 = 1.0 / 128.0;
 /// Rings of vertices around the folds freed in successive attempts.
 const RINGS: [usize; 5] = [2, 4, 8, 16, 32];
+/// The widest regions of the repair from a rewound start (before the repair): folds it leaves
+/// there come from a rewinding too tight for its place, and the start from the global step's
+/// map, rewound afterwards on the final map, is kept instead. On bunny ×16 (1.1 M faces) the
+/// 16-ring region of the rewound start took 0.29 s per solve and left its 9 folds; capped at 8
+/// rings the 57 plain and 28 constrained sweep solves, the 72 re-tessellated ones and the 72
+/// cases of tests/untangle.rs end with the same folds, mis-wound vertices and patched places.
+const REWOUND_WIDEST_RINGS: usize = 8;
 /// Largest region (vertices) the repair solves.
 const MAX_REGION: usize = 1500;
 /// The same for regions with components held by constraint curves: their folds rarely yield
@@ -893,12 +900,19 @@ pub(crate) fn repair(
         mean_area,
         cones,
     };
-    let mut unfolded = at.unfold(&turned, uv, cancel);
+    // The rewound start grows its regions to [`REWOUND_WIDEST_RINGS`] only: the global step's
+    // map is the fallback.
+    let widest = if rewound > 0 {
+        REWOUND_WIDEST_RINGS
+    } else {
+        usize::MAX
+    };
+    let mut unfolded = at.unfold(&turned, uv, widest, cancel);
     // The rewound start may leave folds that the global step's map does not (seen at N = 6
     // at coarse densities): then the better of both, and only that one relaxed.
     if rewound > 0 && !folded(uv).is_empty() && !cancel() {
         let mut plain = start;
-        let other = at.unfold(&[], &mut plain, cancel);
+        let other = at.unfold(&[], &mut plain, usize::MAX, cancel);
         if folded(&plain).len() <= folded(uv).len() {
             uv.copy_from_slice(&plain);
             (unfolded, rewound) = (other, 0);
@@ -1000,14 +1014,15 @@ struct Unfolded {
 }
 
 impl Regions<'_> {
-    /// The repair proper from `uv` (module docs) without its last relaxation
-    /// ([`Self::relax_repaired`]), so that of two starts only the better one is relaxed (the
-    /// relaxation never changes how many faces are folded: it solves fold-free regions only,
-    /// under the barrier).
+    /// The repair proper from `uv` (module docs), regions grown up to `widest` rings, without
+    /// its last relaxation ([`Self::relax_repaired`]), so that of two starts only the better one
+    /// is relaxed (the relaxation never changes how many faces are folded: it solves fold-free
+    /// regions only, under the barrier).
     fn unfold(
         &self,
         rewound: &[usize],
         uv: &mut [[f64; 2]],
+        widest: usize,
         cancel: super::CancelCheck<'_>,
     ) -> Unfolded {
         let (mesh, rots, space) = (self.mesh, self.rots, self.space);
@@ -1035,7 +1050,7 @@ impl Regions<'_> {
         // Growing regions around the folds left.
         let grow = |uv: &mut [[f64; 2]], mut bad: Vec<usize>, keep: bool| -> Vec<usize> {
             let mut stalled = 0;
-            for rings in RINGS {
+            for rings in RINGS.into_iter().filter(|&r| r <= widest) {
                 if bad.is_empty() || stalled >= 2 || cancel() {
                     break;
                 }
@@ -1082,7 +1097,7 @@ impl Regions<'_> {
         uv: &mut [[f64; 2]],
         cancel: super::CancelCheck<'_>,
     ) -> Vec<usize> {
-        let unfolded = self.unfold(rewound, uv, cancel);
+        let unfolded = self.unfold(rewound, uv, usize::MAX, cancel);
         self.relax_repaired(&unfolded, uv, cancel);
         unfolded.stuck
     }
