@@ -1006,6 +1006,17 @@ fn mean_target_area(mesh: &TriMesh, frames: &[[DVec3; 2]]) -> f64 {
         / mesh.n_faces() as f64
 }
 
+/// What the regional solves of the repair share: the map space, the target frames and the
+/// cones of the branch points whose windings are kept.
+struct Regions<'a> {
+    mesh: &'a TriMesh,
+    rots: &'a Rots,
+    space: &'a MapSpace,
+    frames: &'a [[DVec3; 2]],
+    mean_area: f64,
+    cones: &'a [f64],
+}
+
 /// What [`Regions::unfold`] leaves for [`Regions::relax_repaired`]: the stuck faces and the
 /// faces whose surroundings are relaxed.
 struct Unfolded {
@@ -1101,17 +1112,6 @@ impl Regions<'_> {
         self.relax_repaired(&unfolded, uv, cancel);
         unfolded.stuck
     }
-}
-
-/// What the regional solves of the repair share: the map space, the target frames and the
-/// cones of the branch points whose windings are kept.
-struct Regions<'a> {
-    mesh: &'a TriMesh,
-    rots: &'a Rots,
-    space: &'a MapSpace,
-    frames: &'a [[DVec3; 2]],
-    mean_area: f64,
-    cones: &'a [f64],
 }
 
 impl Regions<'_> {
