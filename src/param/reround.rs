@@ -314,11 +314,10 @@ impl QuadCover {
                             area.is_nan() || area <= 0.0
                         })
                         .count();
-                    let apart = |&&(b, s): &&(usize, usize)| {
-                        let (p, q) = (at(b), at(s));
-                        (p[0] - q[0]).hypot(p[1] - q[1]) > COINCIDENT
-                    };
-                    let together = pairs.iter().filter(|pair| !apart(pair)).count();
+                    let together = pairs
+                        .iter()
+                        .filter(|&&(b, s)| coincident(at(b), at(s)))
+                        .count();
                     Some((wound + 2 * together, folds))
                 })?;
             let p99 = |uv: &[[f64; 2]]| {
@@ -579,8 +578,10 @@ pub(super) fn changed(first: &[[f64; 2]], now: &[[f64; 2]]) -> Vec<Rerounded> {
         .collect()
 }
 
-/// Two corners closer than this in one chart are on one lattice point.
-const COINCIDENT: f64 = 1e-6;
+/// Whether two corners of one chart are on one lattice point (closer than 1e-6).
+fn coincident(a: [f64; 2], b: [f64; 2]) -> bool {
+    (a[0] - b[0]).hypot(a[1] - b[1]) <= 1e-6
+}
 
 /// Pairs of corners (the wrongly wound branch point's, another singularity's) on one point of
 /// one seamless chart: per branch point among `wrong`, the faces reached from one of its own
@@ -593,7 +594,6 @@ fn collided(
 ) -> Vec<(usize, usize)> {
     let singular =
         |v: usize| !mesh.is_boundary_vertex(v) && (cones[v] - std::f64::consts::TAU).abs() > 1e-9;
-    let same = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]) <= COINCIDENT;
     let mut pairs = Vec::new();
     for &b in wrong {
         if !singular(b) || cones[b].is_nan() {
@@ -609,7 +609,7 @@ fn collided(
                 let v = mesh.from(h);
                 if v != b
                     && singular(v)
-                    && same(uv[h], uv[cb])
+                    && coincident(uv[h], uv[cb])
                     && !pairs.iter().any(|&(_, s)| mesh.from(s) == v)
                 {
                     pairs.push((cb, h));

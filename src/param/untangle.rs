@@ -432,23 +432,18 @@ pub(crate) fn positive(uv: &[[f64; 2]], f: usize) -> bool {
 
 /// An upper bound of [`degenerate_area`] without square roots.
 fn degenerate_bound(uv: &[[f64; 2]], f: usize) -> f64 {
-    let c = [uv[3 * f], uv[3 * f + 1], uv[3 * f + 2]];
-    let scale = 1.0
-        + c.iter()
-            .map(|p| p[0].abs().max(p[1].abs()))
-            .fold(0.0, f64::max);
-    let longest = (0..3)
-        .map(|k| {
-            let (a, b) = (c[k], c[(k + 1) % 3]);
-            (b[0] - a[0]).abs().max((b[1] - a[1]).abs())
-        })
-        .fold(0.0, f64::max);
-    0.5 * 1e-9 * scale * 1.5 * longest
+    1.5 * degenerate_by(uv, f, |d| d[0].abs().max(d[1].abs()))
 }
 
 /// The area below which face f's texture triangle is degenerate: half its longest edge times
 /// 1e-9 of its corners' largest coordinate (plus one).
 fn degenerate_area(uv: &[[f64; 2]], f: usize) -> f64 {
+    degenerate_by(uv, f, |d| d[0].hypot(d[1]))
+}
+
+/// Half the longest edge of face f's texture triangle, each measured by `length`, times 1e-9
+/// of its corners' largest coordinate (plus one).
+fn degenerate_by(uv: &[[f64; 2]], f: usize, length: impl Fn([f64; 2]) -> f64) -> f64 {
     let c = [uv[3 * f], uv[3 * f + 1], uv[3 * f + 2]];
     let scale = 1.0
         + c.iter()
@@ -457,7 +452,7 @@ fn degenerate_area(uv: &[[f64; 2]], f: usize) -> f64 {
     let longest = (0..3)
         .map(|k| {
             let (a, b) = (c[k], c[(k + 1) % 3]);
-            (b[0] - a[0]).hypot(b[1] - a[1])
+            length([b[0] - a[0], b[1] - a[1]])
         })
         .fold(0.0, f64::max);
     0.5 * 1e-9 * scale * longest
