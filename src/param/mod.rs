@@ -42,7 +42,10 @@ pub mod pipeline;
 
 pub mod bench;
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
+
+use rayon::prelude::*;
 
 use glam::DVec3;
 use serde::Serialize;
@@ -303,6 +306,9 @@ pub struct QuadCover {
     /// on a mesh opened at poles, whose stars' quads it would fold once closed.
     relax_last: bool,
 }
+
+/// A crowded try: its map, what its last step needs again, its frames.
+type Try = (Parameterization, Option<LastSolve>, Vec<[DVec3; 2]>);
 
 /// The opened solver and the treated poles' indices.
 type OpenedFor = (std::sync::Arc<Opened>, Vec<(usize, f64)>);
@@ -790,6 +796,7 @@ impl QuadCover {
         if curves.is_empty() && first.poles.is_empty() && !self.opts.no_untangle {
             first = self.reround_windings_of(mesh, frames, first, cancel)?;
         }
+        let first_repair_ms = first.timings.repair_ms;
         // Under curves for folds and for many mis-wound vertices only: most constrained maps
         // keep a few, and a second solve for those doubled the repair time of the constraint
         // sweep for 10 % fewer of them; many are a crowded cluster at a coarse density, what
@@ -817,39 +824,63 @@ impl QuadCover {
         // (docs/untangling.md).
         // (Never under curves: it moves gaps without the curves' equations.)
         let windings_in_tries = curves.is_empty() && !first.rerounded_gaps.is_empty();
+        // The tries run side by side: each refines the frames around the first map's
+        // singularities (a grid made finer does not move them), so none depends on another,
+        // and the ones run are taken in the ladder's order as if run one after the other. A
+        // try that is done stops the later ones, which that order would not have run.
+        let started = Instant::now();
+        let singularities = first.singularities.clone();
+        let stop: Vec<AtomicBool> = crowded::LADDER
+            .iter()
+            .map(|_| AtomicBool::new(false))
+            .collect();
+        let tries: Vec<Result<Option<Try>, ParamError>> = crowded::LADDER
+            .par_iter()
+            .enumerate()
+            .map(|(i, &crowding)| {
+                let Some((refined, refinement)) =
+                    crowded::refined_frames(mesh, &singularities, frames, crowding)
+                else {
+                    return Ok(None);
+                };
+                let stopped = || cancel() || stop[i].load(Ordering::Relaxed);
+                let (mut next, last) =
+                    match self.solve_once(mesh, &refined, curves, &stopped, &no_preview) {
+                        Ok(solved) => solved,
+                        Err(ParamError::Cancelled) => return Err(ParamError::Cancelled),
+                        // E.g. curves that contradict on the finer grid: skipped.
+                        Err(_) => return Ok(None),
+                    };
+                if windings_in_tries {
+                    next = self.reround_windings_of(mesh, &refined, next, &stopped)?;
+                }
+                if done(&next) {
+                    for later in &stop[i + 1..] {
+                        later.store(true, Ordering::Relaxed);
+                    }
+                }
+                next.crowded_refinement = Some(refinement);
+                Ok(Some((next, last, refined)))
+            })
+            .collect();
         let mut best = first;
         // The frames of the kept try, when a try is kept.
         let mut best_frames: Option<Vec<[DVec3; 2]>> = None;
-        let mut spent = 0.0;
-        for crowding in crowded::LADDER {
+        for tried in tries {
             if done(&best) {
                 break;
             }
-            let Some((refined, refinement)) =
-                crowded::refined_frames(mesh, &best.singularities, frames, crowding)
-            else {
+            let Some((next, next_last, refined)) = tried? else {
                 continue;
             };
-            let (mut next, next_last) =
-                match self.solve_once(mesh, &refined, curves, cancel, &no_preview) {
-                    Ok(solved) => solved,
-                    Err(ParamError::Cancelled) => return Err(ParamError::Cancelled),
-                    Err(_) => continue,
-                };
-            if windings_in_tries {
-                next = self.reround_windings_of(mesh, &refined, next, cancel)?;
-            }
             if badness(&next) < badness(&best) {
-                spent += best.timings.repair_ms;
-                next.crowded_refinement = Some(refinement);
                 best = next;
                 best_frames = Some(refined);
                 best_last = next_last;
-            } else {
-                spent += next.timings.repair_ms;
             }
         }
-        best.timings.repair_ms += spent;
+        // The tries' wall time, their solves included: they are there for the repair.
+        best.timings.repair_ms = first_repair_ms + started.elapsed().as_secs_f64() * 1e3;
         let kept_frames = best_frames.as_deref().unwrap_or(frames);
         if best_frames.is_some() && curves.is_empty() && !windings_in_tries {
             best = self.reround_windings_of(mesh, kept_frames, best, cancel)?;
