@@ -307,6 +307,32 @@ pub struct QuadCover {
     relax_last: bool,
 }
 
+/// Meshes from this many faces start the crowded tries beside the first solve
+/// ([`QuadCover::solve_previewing`]): where a try costs seconds, waiting for the first map to
+/// ask for it doubles the repair's wall time; on small meshes a try the first map then does not
+/// need would only take the core its repair runs on.
+const SPECULATE_FACES: usize = 200_000;
+
+/// Whether a map needs no crowded try: no fold and no mis-wound vertex; under curves a few
+/// mis-wound vertices ([`crowded::FEW_MISWOUND`]) are let be (most constrained maps keep a few,
+/// and a second solve for those doubled the repair time of the constraint sweep for 10 % fewer
+/// of them; many are a crowded cluster at a coarse density, what the finer grid is for,
+/// docs/untangling.md).
+fn crowded_done(p: &Parameterization, under_curves: bool) -> bool {
+    p.flipped_faces == 0
+        && (p.miswound.is_empty() || (under_curves && p.miswound.len() <= crowded::FEW_MISWOUND))
+}
+
+/// Sets `stop` for the tries after the i-th when the i-th is done (the ladder would stop
+/// there).
+fn stop_later_if_done(p: &Parameterization, under_curves: bool, stop: &[AtomicBool], i: usize) {
+    if crowded_done(p, under_curves) {
+        for later in &stop[i + 1..] {
+            later.store(true, Ordering::Relaxed);
+        }
+    }
+}
+
 /// A crowded try: its map, what its last step needs again, its frames.
 type Try = (Parameterization, Option<LastSolve>, Vec<[DVec3; 2]>);
 
@@ -792,25 +818,53 @@ impl QuadCover {
         cancel: CancelCheck<'_>,
         preview: PreviewSink<'_>,
     ) -> Result<Parameterization, ParamError> {
-        let (mut first, mut best_last) = self.solve_once(mesh, frames, curves, cancel, preview)?;
-        if curves.is_empty() && first.poles.is_empty() && !self.opts.no_untangle {
-            first = self.reround_windings_of(mesh, frames, first, cancel)?;
-        }
-        let first_repair_ms = first.timings.repair_ms;
-        // Under curves for folds and for many mis-wound vertices only: most constrained maps
-        // keep a few, and a second solve for those doubled the repair time of the constraint
-        // sweep for 10 % fewer of them; many are a crowded cluster at a coarse density, what
-        // the finer grid is for (docs/untangling.md).
-        let done = |p: &Parameterization| {
-            p.flipped_faces == 0
-                && (p.miswound.is_empty()
-                    || (!curves.is_empty() && p.miswound.len() <= crowded::FEW_MISWOUND))
+        let done = |p: &Parameterization| crowded_done(p, !curves.is_empty());
+        let ladder = !self.opts.no_untangle && !self.opts.no_crowded_refinement;
+        let stop: Vec<AtomicBool> = crowded::LADDER
+            .iter()
+            .map(|_| AtomicBool::new(false))
+            .collect();
+        let solve_first = || -> Result<_, ParamError> {
+            let solved = self
+                .solve_once(mesh, frames, curves, cancel, preview)
+                .and_then(|(first, last)| {
+                    if curves.is_empty() && first.poles.is_empty() && !self.opts.no_untangle {
+                        Ok((self.reround_windings_of(mesh, frames, first, cancel)?, last))
+                    } else {
+                        Ok((first, last))
+                    }
+                });
+            // Tries started beside it are not wanted when it failed or needs none.
+            if !matches!(&solved, Ok((first, _)) if first.poles.is_empty() && !done(first)) {
+                for s in &stop {
+                    s.store(true, Ordering::Relaxed);
+                }
+            }
+            let (first, last) = solved?;
+            Ok((first, last, Instant::now()))
         };
-        if self.opts.no_untangle
-            || self.opts.no_crowded_refinement
-            || !first.poles.is_empty()
-            || done(&first)
-        {
+        // On large meshes the tries start beside the first solve, on the field's
+        // singularities (the first map's, checked below), unless one is a pole (a map with
+        // poles takes no try). They are dropped when the first map needs none.
+        let (first, speculated) = if ladder && mesh.n_faces() >= SPECULATE_FACES {
+            let (first, speculated) = rayon::join(solve_first, || {
+                let singularities = self.singularities(mesh, frames);
+                if singularities
+                    .iter()
+                    .any(|s| poles::is_pole(s.holonomy, s.index))
+                {
+                    return None;
+                }
+                let tries =
+                    self.crowded_tries(mesh, frames, curves, &singularities, &stop, cancel, false);
+                Some((singularities, tries))
+            });
+            (first?, speculated)
+        } else {
+            (solve_first()?, None)
+        };
+        let (first, mut best_last, first_end) = first;
+        if !ladder || !first.poles.is_empty() || done(&first) {
             return self.relax_conformal_of(mesh, frames, first, best_last, cancel);
         }
         // Tries on grids made finer around crowded singularities ([`crowded::LADDER`]), while
@@ -824,45 +878,25 @@ impl QuadCover {
         // (docs/untangling.md).
         // (Never under curves: it moves gaps without the curves' equations.)
         let windings_in_tries = curves.is_empty() && !first.rerounded_gaps.is_empty();
-        // The tries run side by side: each refines the frames around the first map's
-        // singularities (a grid made finer does not move them), so none depends on another,
-        // and the ones run are taken in the ladder's order as if run one after the other. A
-        // try that is done stops the later ones, which that order would not have run.
-        let started = Instant::now();
-        let singularities = first.singularities.clone();
-        let stop: Vec<AtomicBool> = crowded::LADDER
-            .iter()
-            .map(|_| AtomicBool::new(false))
-            .collect();
-        let tries: Vec<Result<Option<Try>, ParamError>> = crowded::LADDER
-            .par_iter()
-            .enumerate()
-            .map(|(i, &crowding)| {
-                let Some((refined, refinement)) =
-                    crowded::refined_frames(mesh, &singularities, frames, crowding)
-                else {
-                    return Ok(None);
-                };
-                let stopped = || cancel() || stop[i].load(Ordering::Relaxed);
-                let (mut next, last) =
-                    match self.solve_once(mesh, &refined, curves, &stopped, &no_preview) {
-                        Ok(solved) => solved,
-                        Err(ParamError::Cancelled) => return Err(ParamError::Cancelled),
-                        // E.g. curves that contradict on the finer grid: skipped.
-                        Err(_) => return Ok(None),
-                    };
+        let tries = match speculated {
+            Some((singularities, tries)) if singularities == first.singularities => {
                 if windings_in_tries {
-                    next = self.reround_windings_of(mesh, &refined, next, &stopped)?;
+                    self.rerounded_tries(mesh, tries, &stop, cancel)
+                } else {
+                    tries
                 }
-                if done(&next) {
-                    for later in &stop[i + 1..] {
-                        later.store(true, Ordering::Relaxed);
-                    }
-                }
-                next.crowded_refinement = Some(refinement);
-                Ok(Some((next, last, refined)))
-            })
-            .collect();
+            }
+            _ => self.crowded_tries(
+                mesh,
+                frames,
+                curves,
+                &first.singularities,
+                &stop,
+                cancel,
+                windings_in_tries,
+            ),
+        };
+        let first_repair_ms = first.timings.repair_ms;
         let mut best = first;
         // The frames of the kept try, when a try is kept.
         let mut best_frames: Option<Vec<[DVec3; 2]>> = None;
@@ -879,13 +913,83 @@ impl QuadCover {
                 best_last = next_last;
             }
         }
-        // The tries' wall time, their solves included: they are there for the repair.
-        best.timings.repair_ms = first_repair_ms + started.elapsed().as_secs_f64() * 1e3;
+        // The first map's repair and the wall time the tries took after it, their solves
+        // included: they are there for the repair.
+        best.timings.repair_ms = first_repair_ms + first_end.elapsed().as_secs_f64() * 1e3;
         let kept_frames = best_frames.as_deref().unwrap_or(frames);
         if best_frames.is_some() && curves.is_empty() && !windings_in_tries {
             best = self.reround_windings_of(mesh, kept_frames, best, cancel)?;
         }
         self.relax_conformal_of(mesh, kept_frames, best, best_last, cancel)
+    }
+
+    /// The crowded tries ([`crowded::LADDER`]) on frames refined around `singularities`, side
+    /// by side: none depends on another (a grid made finer does not move the singularities),
+    /// and the caller takes them in the ladder's order, as if run one after the other. A try
+    /// that is done sets `stop` for the later ones, which that order would not run (their
+    /// results are then not read). With `windings`, each try's windings are re-rounded too.
+    #[allow(clippy::too_many_arguments)]
+    fn crowded_tries(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[DVec3; 2]],
+        curves: &[ConstraintCurve],
+        singularities: &[Singularity],
+        stop: &[AtomicBool],
+        cancel: CancelCheck<'_>,
+        windings: bool,
+    ) -> Vec<Result<Option<Try>, ParamError>> {
+        crowded::LADDER
+            .par_iter()
+            .enumerate()
+            .map(|(i, &crowding)| {
+                let Some((refined, refinement)) =
+                    crowded::refined_frames(mesh, singularities, frames, crowding)
+                else {
+                    return Ok(None);
+                };
+                let stopped = || cancel() || stop[i].load(Ordering::Relaxed);
+                let (mut next, last) =
+                    match self.solve_once(mesh, &refined, curves, &stopped, &no_preview) {
+                        Ok(solved) => solved,
+                        Err(ParamError::Cancelled) => return Err(ParamError::Cancelled),
+                        // E.g. curves that contradict on the finer grid: skipped.
+                        Err(_) => return Ok(None),
+                    };
+                if windings {
+                    next = self.reround_windings_of(mesh, &refined, next, &stopped)?;
+                }
+                next.crowded_refinement = Some(refinement);
+                stop_later_if_done(&next, !curves.is_empty(), stop, i);
+                Ok(Some((next, last, refined)))
+            })
+            .collect()
+    }
+
+    /// Tries solved beside the first map, their windings re-rounded now that the first map
+    /// asks for it (side by side, as [`Self::crowded_tries`]).
+    fn rerounded_tries(
+        &self,
+        mesh: &TriMesh,
+        tries: Vec<Result<Option<Try>, ParamError>>,
+        stop: &[AtomicBool],
+        cancel: CancelCheck<'_>,
+    ) -> Vec<Result<Option<Try>, ParamError>> {
+        tries
+            .into_par_iter()
+            .enumerate()
+            .map(|(i, tried)| {
+                let Some((next, last, refined)) = tried? else {
+                    return Ok(None);
+                };
+                let stopped = || cancel() || stop[i].load(Ordering::Relaxed);
+                let refinement = next.crowded_refinement.clone();
+                let mut next = self.reround_windings_of(mesh, &refined, next, &stopped)?;
+                next.crowded_refinement = refinement;
+                stop_later_if_done(&next, false, stop, i);
+                Ok(Some((next, last, refined)))
+            })
+            .collect()
     }
 
     /// One solve on given frames: under curves [`Self::solve_curves`], with poles alg. 6 on
