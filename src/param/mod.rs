@@ -818,6 +818,21 @@ impl QuadCover {
         cancel: CancelCheck<'_>,
         preview: PreviewSink<'_>,
     ) -> Result<Parameterization, ParamError> {
+        let speculate = mesh.n_faces() >= SPECULATE_FACES;
+        self.solve_with_tries(mesh, frames, curves, cancel, preview, speculate)
+    }
+
+    /// [`QuadCover::solve_previewing`], the crowded tries started beside the first solve when
+    /// `speculate` says so.
+    fn solve_with_tries(
+        &self,
+        mesh: &TriMesh,
+        frames: &[[DVec3; 2]],
+        curves: &[ConstraintCurve],
+        cancel: CancelCheck<'_>,
+        preview: PreviewSink<'_>,
+        speculate: bool,
+    ) -> Result<Parameterization, ParamError> {
         let done = |p: &Parameterization| crowded_done(p, !curves.is_empty());
         let ladder = !self.opts.no_untangle && !self.opts.no_crowded_refinement;
         let stop: Vec<AtomicBool> = crowded::LADDER
@@ -846,7 +861,7 @@ impl QuadCover {
         // On large meshes the tries start beside the first solve, on the field's
         // singularities (the first map's, checked below), unless one is a pole (a map with
         // poles takes no try). They are dropped when the first map needs none.
-        let (first, speculated) = if ladder && mesh.n_faces() >= SPECULATE_FACES {
+        let (first, speculated) = if ladder && speculate {
             let (first, speculated) = rayon::join(solve_first, || {
                 let singularities = self.singularities(mesh, frames);
                 if singularities
@@ -1500,4 +1515,68 @@ pub fn projected_frames(mesh: &TriMesh, dir: DVec3, scale: f64) -> Vec<[DVec3; 2
             [u, n.cross(u)]
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::{self, Density, FieldParams, Symmetry};
+
+    /// Tries started beside the first solve give the map that tries started after it give,
+    /// bit for bit: where a try is kept, where the first map's windings were re-rounded (the
+    /// tries' then are too), and where the first map needs none.
+    #[test]
+    fn tries_started_beside_the_first_solve_give_the_same_map() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/meshes/spot.obj");
+        let Ok(loaded) = crate::load::load_mesh(std::path::Path::new(path)) else {
+            eprintln!("skipped: {path} is missing");
+            return;
+        };
+        let mesh = loaded.mesh;
+        let (mut kept, mut rerounded, mut none_needed) = (0, 0, 0);
+        for (n, target) in [(4, Some(1500)), (6, Some(1500)), (4, None)] {
+            let mut params = FieldParams {
+                symmetry: Symmetry::from_n(n).unwrap(),
+                ..Default::default()
+            };
+            if let Some(v) = target {
+                params.density = Density::TargetVertices(v);
+            }
+            let f = field::compute_field(&mesh, &params).unwrap().field;
+            let opts = ParamOptions {
+                pure_quad: n == 4,
+                ..Default::default()
+            };
+            let qc = QuadCover::new(&mesh, n as usize, &f.matchings, opts).unwrap();
+            let solve = |speculate| {
+                qc.solve_with_tries(&mesh, &f.frames, &[], &|| false, &no_preview, speculate)
+                    .unwrap()
+            };
+            let (after, beside) = (solve(false), solve(true));
+            let label = format!("N = {n}, {target:?}");
+            assert_eq!(after.uv, beside.uv, "{label}");
+            assert_eq!(after.gaps, beside.gaps, "{label}");
+            assert_eq!(after.miswound, beside.miswound, "{label}");
+            assert_eq!(after.flipped_faces, beside.flipped_faces, "{label}");
+            assert_eq!(
+                after.crowded_refinement, beside.crowded_refinement,
+                "{label}"
+            );
+            assert_eq!(
+                format!("{:?}", after.rerounded_gaps),
+                format!("{:?}", beside.rerounded_gaps),
+                "{label}"
+            );
+            kept += usize::from(after.crowded_refinement.is_some());
+            rerounded += usize::from(!after.rerounded_gaps.is_empty());
+            none_needed += usize::from(after.crowded_refinement.is_none());
+            eprintln!(
+                "{label}: try {:?}, rerounded {}, mis-wound {}",
+                after.crowded_refinement.as_ref().and_then(|r| r.crowding),
+                after.rerounded_gaps.len(),
+                after.miswound.len()
+            );
+        }
+        assert!(kept > 0 && rerounded > 0 && none_needed > 0);
+    }
 }
