@@ -366,28 +366,32 @@ fn the_repair_unfolds_what_no_untangle_keeps() {
 /// The repair's last step (`untangle::relax_conformal`) relaxes what the repair left more
 /// distorted than the global step's map: on the bunny (N = 4, 27 folds, every branch point
 /// rewound) the conformal distortion's p99 stays within the 5 % of the global step's
-/// map (measured 2026-12-04: 1.972 → 1.985; 2.112, +7 %, without the step), the mean too.
+/// map (measured 2026-12-04: 1.972 → 1.985; 2.112, +7 %, without the step), the mean too; on
+/// the cerebral vessels' stripes (N = 2, 32 folds) it takes more than one pass (2.339 → 2.492,
+/// +7 %, with one; 2.35 with up to four).
 #[test]
 fn the_repair_keeps_the_distortion_of_the_global_step() {
-    let Some(path) = meshes::shared("bunny.obj") else {
-        return;
-    };
-    let mesh = quadcover::load::load_mesh(&path).unwrap().mesh;
-    let (p, plain) = solve_both(&mesh, 4, None, false);
-    assert!(
-        plain.flipped_faces > 0,
-        "the case must fold without the repair"
-    );
-    check("bunny", &mesh, &p, &plain);
-    let (before, after) = (&plain.conformal_distortion, &p.conformal_distortion);
-    assert!(
-        after.p99 <= 1.05 * before.p99 && after.mean <= 1.05 * before.mean,
-        "conformal distortion {:.3}/{:.3} -> {:.3}/{:.3}",
-        before.mean,
-        before.p99,
-        after.mean,
-        after.p99
-    );
+    for (name, n) in [("bunny.obj", 4), ("cerebral-vessels.obj", 2)] {
+        let Some(path) = meshes::shared(name) else {
+            return;
+        };
+        let mesh = quadcover::load::load_mesh(&path).unwrap().mesh;
+        let (p, plain) = solve_both(&mesh, n, None, false);
+        assert!(
+            plain.flipped_faces > 0,
+            "{name}: the case must fold without the repair"
+        );
+        check(name, &mesh, &p, &plain);
+        let (before, after) = (&plain.conformal_distortion, &p.conformal_distortion);
+        assert!(
+            after.p99 <= 1.05 * before.p99 && after.mean <= 1.05 * before.mean,
+            "{name}: conformal distortion {:.3}/{:.3} -> {:.3}/{:.3}",
+            before.mean,
+            before.p99,
+            after.mean,
+            after.p99
+        );
+    }
 }
 
 /// Two +1/6 branch points of max-planck (N = 6, 1500 vertices) rounded onto one lattice point
