@@ -516,3 +516,36 @@ fn a_cancelled_repair_reports_cancelled() {
     );
     assert_eq!(p.flipped_faces, 0);
 }
+
+/// On a sphere every point is an umbilic: no curvature direction to align to, and the relaxed
+/// field, anchored almost nowhere, crowded its zeros together (the icosphere's N = 2 field had
+/// its four +1/2 within 23° of each other; the UV sphere's N = 6 field a +1/2 and six +1/6
+/// around one pole), and the maps folded by the hundred (215 and 632 faces left after the
+/// repair). Such a field is renormalized (`field::smoothing::unanchored`): the singularities
+/// spread out and nothing folds.
+#[test]
+fn fields_on_spheres_spread_their_singularities_and_fold_nothing() {
+    use quadcover::mesh::generate::{icosphere, uv_sphere};
+    for (name, mesh, n, count) in [
+        ("icosphere", icosphere(3), 2, 4),
+        ("UV sphere", uv_sphere(32, 64), 6, 12),
+    ] {
+        let (p, _) = solve_both(&mesh, n, None, false);
+        assert_eq!(p.flipped_faces, 0, "{name}, N = {n}");
+        assert_eq!(p.singularities.len(), count, "{name}, N = {n}");
+        let positions: Vec<_> = p
+            .singularities
+            .iter()
+            .map(|s| mesh.position(s.vertex))
+            .collect();
+        // Four points spread over a sphere are a regular tetrahedron's (109°) at best, twelve an
+        // icosahedron's (63°; 40° measured on this UV sphere); crowded ones were 15–23° apart.
+        let closest = positions
+            .iter()
+            .enumerate()
+            .flat_map(|(i, a)| positions[i + 1..].iter().map(move |b| a.angle_between(*b)))
+            .fold(f64::INFINITY, f64::min)
+            .to_degrees();
+        assert!(closest > 30.0, "{name}, N = {n}: singularities {closest:.0}° apart");
+    }
+}

@@ -411,12 +411,16 @@ fn field_with_analysis<T: Send>(
         cancel::cancel_close_pairs(mesh, &tr, theta, turns, n, radius)
     };
     // Renormalized ([`smoothing::RENORMALIZE_STEPS`]): every relaxed solution with
-    // `renormalize`; otherwise, under aligned curves, one whose rounding has a singularity of
+    // `renormalize`; one anchored almost nowhere ([`smoothing::unanchored`]: a surface of
+    // umbilics); otherwise, under aligned curves, one whose rounding has a singularity of
     // index +1/2 or more (at least 2/N: the pole a symmetric disc inside an aligned rim rounds
     // to). Without curves such poles are the curvature lines' (umbilics, thesis sec. 4.3).
-    let renormalize = |turns: &[i64]| {
-        if params.renormalize {
+    let renormalize = |turns: &[i64], magnitudes: &[f64]| {
+        if params.renormalize || smoothing::unanchored(magnitudes) {
             return true;
+        }
+        if params.aligned.is_none() {
+            return false;
         }
         let least = (n as i32 / 2).max(2);
         index::turn_indices(mesh, &tr, turns, n)
@@ -432,8 +436,7 @@ fn field_with_analysis<T: Send>(
         tau: params.tau,
         relaxation: params.relaxation,
         adjust_turns: (radius > 0.0).then_some(&cancel as &smoothing::AdjustTurns),
-        renormalize: (params.aligned.is_some() || params.renormalize)
-            .then_some(&renormalize as &smoothing::Renormalize),
+        renormalize: Some(&renormalize as &smoothing::Renormalize),
         analysis: Some(analysis),
         layout: Some(&layout),
         keep_system: params.keep_system,

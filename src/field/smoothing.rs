@@ -77,8 +77,8 @@ pub struct SmoothInput<'a> {
     /// is built: may return changed turns (e.g. close singularity pairs cancelled, sec. 3.3),
     /// which the rounding passes then keep, and faces whose alignment weight to drop.
     pub adjust_turns: Option<&'a AdjustTurns<'a>>,
-    /// Asked with the relaxed solution's rounded turns whether to renormalize it
-    /// ([`RENORMALIZE_STEPS`]); only [`Relaxation::Complex`] does.
+    /// Asked with the relaxed solution's rounded turns and its magnitude |z| per face whether
+    /// to renormalize it ([`RENORMALIZE_STEPS`]); only [`Relaxation::Complex`] does.
     pub renormalize: Option<&'a Renormalize<'a>>,
     /// Where the analysis of [`DualLayout::pattern`] comes from if it is computed elsewhere
     /// (it depends on the mesh only, so callers compute it while other work runs); asked for
@@ -197,7 +197,7 @@ pub type AnalysisSource<'a> = dyn Fn() -> Result<Analysis, SolverError> + Sync +
 pub type AdjustTurns<'a> = dyn Fn(&[f64], &[i64]) -> Option<(Vec<i64>, Vec<usize>)> + Sync + 'a;
 
 /// See [`SmoothInput::renormalize`].
-pub type Renormalize<'a> = dyn Fn(&[i64]) -> bool + Sync + 'a;
+pub type Renormalize<'a> = dyn Fn(&[i64], &[f64]) -> bool + Sync + 'a;
 
 /// Renormalization of the relaxed solution (a Merriman–Bence–Osher scheme for the
 /// Ginzburg–Landau energy of z): `RENORMALIZE_STEPS` times, z ← the minimiser of the relaxed
@@ -214,11 +214,35 @@ pub type Renormalize<'a> = dyn Fn(&[i64]) -> bool + Sync + 'a;
 /// the units of the dual graph (edge weights 1): 1/√μ = 10 faces is the diffusion length of a
 /// step; steps/μ below about 3000 left a symmetric disc's pole whole. Converged within 30
 /// steps on the meshes measured (30, 60 and 100 steps equal). Which solves renormalize is the
-/// caller's choice (`field::compute_field`: under curves, when the rounding has a pole;
-/// docs/untangling.md has what renormalizing every solve under curves measured).
+/// caller's choice (`field::compute_field`: under curves, when the rounding has a pole; and a
+/// solution anchored almost nowhere, [`unanchored`]; docs/untangling.md has what
+/// renormalizing every solve under curves measured).
 pub const RENORMALIZE_STEPS: usize = 30;
 /// See [`RENORMALIZE_STEPS`].
 pub const RENORMALIZE_WEIGHT: f64 = 0.01;
+
+/// The relaxed solution's magnitude below which, at its 90th percentile, it is anchored almost
+/// nowhere: [`unanchored`].
+pub const UNANCHORED_P90: f64 = 0.2;
+
+/// Whether the relaxed solution (magnitudes |z| per face) is anchored almost nowhere: 90 % of
+/// the faces below [`UNANCHORED_P90`], where aligned faces are near 1. On a surface whose
+/// curvature directions are unreliable everywhere (a sphere: every point an umbilic) the
+/// alignment holds only a few faces, the quadratic energy's minimiser decays away from them and
+/// its zeros crowd together: an icosphere's N = 2 field had its four +1/2 within 23° of each
+/// other, the UV sphere's N = 6 field a +1/2 and six +1/6 around one pole, and their maps folded
+/// by the hundred (215 and 632 faces left after the repair). Renormalized, the zeros spread out
+/// (four +1/2, twelve +1/6 as on an icosahedron) and nothing folds. The shared meshes are at
+/// 0.23 or more (spot N = 6) and up to 0.98; those spheres at 0.05–0.15 (2026-12-05).
+pub fn unanchored(magnitudes: &[f64]) -> bool {
+    if magnitudes.is_empty() {
+        return false;
+    }
+    let mut m = magnitudes.to_vec();
+    let k = (m.len() - 1) * 9 / 10;
+    let p90 = *m.select_nth_unstable_by(k, f64::total_cmp).1;
+    p90 < UNANCHORED_P90
+}
 
 const MAX_PASSES: usize = 50;
 
@@ -564,7 +588,10 @@ fn smooth_releasing_by(inp: &SmoothInput, release: Release) -> Result<SmoothOutp
                     |z: &[c64]| -> Vec<f64> { z.iter().map(|z| z.arg() / inp.n as f64).collect() };
                 let mut z = solution.x;
                 if let Some(ask) = inp.renormalize
-                    && ask(&nearest_turns(tr, &angles(&z), step))
+                    && ask(
+                        &nearest_turns(tr, &angles(&z), step),
+                        &z.iter().map(|z| z.norm()).collect::<Vec<_>>(),
+                    )
                 {
                     z = renormalized(inp, &w_relaxed, &anchor_relaxed, layout, &rhs, z)?;
                     lap("smoothing: renormalization".into(), &mut timings);
