@@ -546,6 +546,9 @@ fn fields_on_spheres_spread_their_singularities_and_fold_nothing() {
             .flat_map(|(i, a)| positions[i + 1..].iter().map(move |b| a.angle_between(*b)))
             .fold(f64::INFINITY, f64::min)
             .to_degrees();
-        assert!(closest > 30.0, "{name}, N = {n}: singularities {closest:.0}° apart");
+        assert!(
+            closest > 30.0,
+            "{name}, N = {n}: singularities {closest:.0}° apart"
+        );
     }
 }

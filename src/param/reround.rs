@@ -46,6 +46,9 @@ const COLLISION_FACES: usize = 5000;
 type Gaps = Vec<[f64; 2]>;
 /// [`QuadCover::ranked_steps`]: the base map and the stepped gaps, best first.
 type RankedSteps = (Vec<[f64; 2]>, Vec<Gaps>);
+/// The global map's responses to a unit of gap coordinates ((loop, coordinate)), kept across
+/// the rounds of one re-rounding.
+type Responses<'a> = std::collections::HashMap<(usize, usize), super::global::GapResponse<'a>>;
 
 impl QuadCover {
     /// The gaps the held corners near the folded faces depend on, at most [`REROUND_GAPS`]: the
@@ -125,6 +128,7 @@ impl QuadCover {
             uv.clone(),
             repair.clone(),
         );
+        let mut known = Responses::new();
         for _ in 0..REROUND_ROUNDS {
             let folds_now = untangle::folded(uv);
             if folds_now.len() < best.0 {
@@ -136,8 +140,13 @@ impl QuadCover {
             let candidates = self.gaps_near(mesh, &repair.stuck, &folds_now);
             // Stuck faces must become fewer; without stuck faces any candidate may help.
             let stuck_now = repair.stuck.len();
-            let (base, ranked) =
-                self.ranked_steps(mesh, local, gaps, &candidates, |g, base, shift| {
+            let (base, ranked) = self.ranked_steps(
+                mesh,
+                local,
+                gaps,
+                &candidates,
+                &mut known,
+                |g, base, shift| {
                     let u: Vec<[f64; 2]> = (0..base.len())
                         .map(|c| {
                             let d = shift(c);
@@ -147,7 +156,8 @@ impl QuadCover {
                     let space = self.global.map_space(mesh.n_vertices(), g);
                     let (stuck, folds) = untangle::count_stuck(mesh, &self.rots, &space, &u);
                     (stuck < stuck_now || stuck_now == 0).then_some((stuck, folds))
-                })?;
+                },
+            )?;
             let mut kept = false;
             'tries: for (i, g) in ranked.into_iter().take(REROUND_TRIES).enumerate() {
                 let fresh = self.global_uv(mesh, local, &g)?;
@@ -194,12 +204,14 @@ impl QuadCover {
     /// the gaps, so two solves per gap give the map of every step of it (to rounding: good
     /// enough for ranking; a kept map is solved for exactly). Returns the base map and the
     /// stepped gaps, best first.
-    fn ranked_steps(
-        &self,
+    #[allow(clippy::too_many_arguments)]
+    fn ranked_steps<'a>(
+        &'a self,
         mesh: &TriMesh,
         local: &LocalSolution,
         gaps: &[[f64; 2]],
         candidates: &[usize],
+        known: &mut Responses<'a>,
         mut score: impl FnMut(
             &[[f64; 2]],
             &[[f64; 2]],
@@ -213,12 +225,17 @@ impl QuadCover {
                 .sum()
         };
         let base = self.global_uv(mesh, local, gaps)?;
-        let units: Vec<(usize, usize)> =
-            candidates.iter().flat_map(|&k| [(k, 0), (k, 1)]).collect();
-        let responses = self.global.responses(mesh, &self.rots, &units)?;
+        // The responses do not depend on the gaps: those of earlier rounds are kept.
+        let units: Vec<(usize, usize)> = candidates
+            .iter()
+            .flat_map(|&k| [(k, 0), (k, 1)])
+            .filter(|u| !known.contains_key(u))
+            .collect();
+        let solved = self.global.responses(mesh, &self.rots, &units)?;
+        known.extend(units.into_iter().zip(solved));
         let mut ranked: Vec<((usize, usize, f64), Gaps)> = Vec::new();
-        for (n, &k) in candidates.iter().enumerate() {
-            let (d0, d1) = (&responses[2 * n], &responses[2 * n + 1]);
+        for &k in candidates {
+            let (d0, d1) = (&known[&(k, 0)], &known[&(k, 1)]);
             // Steps that keep the gap on its lattice: the coarser of the two.
             let steps = match self.gap_lattices[k] {
                 Lattice::TwoG6 | Lattice::TurnedG6 | Lattice::TwoTurnedG6 => {
@@ -263,6 +280,7 @@ impl QuadCover {
         repair: &mut untangle::Repair,
         cancel: CancelCheck<'_>,
     ) -> Result<(), ParamError> {
+        let mut known = Responses::new();
         for _ in 0..WINDING_ROUNDS {
             let wrong = untangle::miswound(mesh, uv, cones);
             if wrong.is_empty()
@@ -288,7 +306,7 @@ impl QuadCover {
             let near = untangle::vertices_within(mesh, &wrong, WINDING_RANK_RINGS);
             let near_faces = untangle::faces_around(mesh, &near);
             let (base, ranked) =
-                self.ranked_steps(mesh, local, gaps, &candidates, |_, _, shift| {
+                self.ranked_steps(mesh, local, gaps, &candidates, &mut known, |_, _, shift| {
                     // The repaired map moved by the step, where it matters.
                     let at = |c: usize| -> [f64; 2] {
                         let d = shift(c);
