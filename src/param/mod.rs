@@ -998,9 +998,8 @@ impl QuadCover {
                     return Ok(None);
                 };
                 let stopped = || cancel() || stop[i].load(Ordering::Relaxed);
-                let refinement = next.crowded_refinement.clone();
-                let mut next = self.reround_windings_of(mesh, &refined, next, &stopped)?;
-                next.crowded_refinement = refinement;
+                // (It keeps the try's `crowded_refinement`.)
+                let next = self.reround_windings_of(mesh, &refined, next, &stopped)?;
                 stop_later_if_done(&next, false, stop, i);
                 Ok(Some((next, last, refined)))
             })
