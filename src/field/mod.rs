@@ -411,21 +411,25 @@ fn field_with_analysis<T: Send>(
         cancel::cancel_close_pairs(mesh, &tr, theta, turns, n, radius)
     };
     // Renormalized ([`smoothing::RENORMALIZE_STEPS`]): every relaxed solution with
-    // `renormalize`; one anchored almost nowhere ([`smoothing::unanchored`]: a surface of
-    // umbilics); otherwise, under aligned curves, one whose rounding has a singularity of
+    // `renormalize`; one anchored almost nowhere ([`smoothing::unanchored`]: a sphere, all
+    // umbilics) that rounds to no pole; otherwise, under aligned curves, one whose rounding has a singularity of
     // index +1/2 or more (at least 2/N: the pole a symmetric disc inside an aligned rim rounds
     // to). Without curves such poles are the curvature lines' (umbilics, thesis sec. 4.3).
     let renormalize = |turns: &[i64], magnitudes: &[f64]| {
-        if params.renormalize || smoothing::unanchored(magnitudes) {
+        if params.renormalize {
             return true;
         }
-        if params.aligned.is_none() {
-            return false;
+        let at_least = |least: i32| {
+            index::turn_indices(mesh, &tr, turns, n)
+                .iter()
+                .any(|k| k.is_some_and(|k| k >= least))
+        };
+        // Anchored almost nowhere, unless it rounds to a pole (index +1: a spheroid's
+        // umbilic, which the pole treatment takes as it is, thesis sec. 4.3).
+        if smoothing::unanchored(magnitudes) && !at_least(n as i32) {
+            return true;
         }
-        let least = (n as i32 / 2).max(2);
-        index::turn_indices(mesh, &tr, turns, n)
-            .iter()
-            .any(|k| k.is_some_and(|k| k >= least))
+        params.aligned.is_some() && at_least((n as i32 / 2).max(2))
     };
     let layout = layout()?;
     let sm = smoothing::smooth(&smoothing::SmoothInput {

@@ -233,7 +233,9 @@ pub const UNANCHORED_P90: f64 = 0.2;
 /// other, the UV sphere's N = 6 field a +1/2 and six +1/6 around one pole, and their maps folded
 /// by the hundred (215 and 632 faces left after the repair). Renormalized, the zeros spread out
 /// (four +1/2, twelve +1/6 as on an icosahedron) and nothing folds. The shared meshes are at
-/// 0.23 or more (spot N = 6) and up to 0.98; those spheres at 0.05–0.15 (2026-12-05).
+/// 0.23 or more (spot N = 6) and up to 0.98; those spheres at 0.05–0.15 (2026-12-05). A mild
+/// spheroid (z × 1.6) is as low at N = 2 and 6 (0.14, 0.06) but rounds to poles at its umbilics,
+/// which the pole treatment takes: `field::compute_field` leaves such a solution as it is.
 pub fn unanchored(magnitudes: &[f64]) -> bool {
     if magnitudes.is_empty() {
         return false;
