@@ -253,6 +253,15 @@ pub struct Parameterization {
     pub crowded_refinement: Option<CrowdedRefinement>,
 }
 
+impl Parameterization {
+    /// Whether the solve that made this map took the crowded tries (a try was kept, or the map
+    /// still has folds or mis-wound vertices, which asks for them unless they are off). Under
+    /// curves a few mis-wound vertices ask for none ([`crowded::FEW_MISWOUND`]).
+    pub fn took_crowded_tries(&self) -> bool {
+        self.crowded_refinement.is_some() || !crowded_done(self, !self.curves.is_empty())
+    }
+}
+
 /// Number of cut paths the construction yields: per component with genus g, b boundary loops
 /// and s branch points, 2g + b + s − 1 if b + s ≥ 1, else 2g; summed over components.
 pub fn expected_cut_paths(genus: usize, boundary_loops: usize, branch_points: usize) -> usize {
@@ -312,6 +321,12 @@ pub struct QuadCover {
 /// ask for it doubles the repair's wall time; on small meshes a try the first map then does not
 /// need would only take the core its repair runs on.
 const SPECULATE_FACES: usize = 200_000;
+
+/// Whether [`QuadCover::solve_previewing`] starts the crowded tries beside the first solve on
+/// this mesh ([`SPECULATE_FACES`]).
+pub fn speculates(mesh: &TriMesh) -> bool {
+    mesh.n_faces() >= SPECULATE_FACES
+}
 
 /// Whether a map needs no crowded try: no fold and no mis-wound vertex; under curves a few
 /// mis-wound vertices ([`crowded::FEW_MISWOUND`]) are let be (most constrained maps keep a few,
@@ -818,13 +833,13 @@ impl QuadCover {
         cancel: CancelCheck<'_>,
         preview: PreviewSink<'_>,
     ) -> Result<Parameterization, ParamError> {
-        let speculate = mesh.n_faces() >= SPECULATE_FACES;
-        self.solve_with_tries(mesh, frames, curves, cancel, preview, speculate)
+        self.solve_speculating(mesh, frames, curves, cancel, preview, speculates(mesh))
     }
 
     /// [`QuadCover::solve_previewing`], the crowded tries started beside the first solve when
-    /// `speculate` says so.
-    fn solve_with_tries(
+    /// `speculate` says so (the editor's hint from its last solve; the map is the same either
+    /// way).
+    pub fn solve_speculating(
         &self,
         mesh: &TriMesh,
         frames: &[[DVec3; 2]],
@@ -1548,7 +1563,7 @@ mod tests {
             };
             let qc = QuadCover::new(&mesh, n as usize, &f.matchings, opts).unwrap();
             let solve = |speculate| {
-                qc.solve_with_tries(&mesh, &f.frames, &[], &|| false, &no_preview, speculate)
+                qc.solve_speculating(&mesh, &f.frames, &[], &|| false, &no_preview, speculate)
                     .unwrap()
             };
             let (after, beside) = (solve(false), solve(true));
