@@ -35,6 +35,21 @@ pub struct LoadedMesh {
     pub file_triangles: usize,
 }
 
+/// A mesh of `../shared/meshes/` for unit tests, or `None` (with a note) when it is missing.
+#[cfg(test)]
+pub(crate) fn shared_test_mesh(name: &str) -> Option<TriMesh> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/meshes")
+        .join(name);
+    match load_mesh(&path) {
+        Ok(loaded) => Some(loaded.mesh),
+        Err(_) => {
+            eprintln!("skipped: {} is missing", path.display());
+            None
+        }
+    }
+}
+
 /// Reads, validates and repairs a mesh file (OBJ, PLY, OFF or STL).
 pub fn load_mesh(path: &Path) -> Result<LoadedMesh, LoadError> {
     let soup = io::read_mesh(path).map_err(|source| LoadError::Read {

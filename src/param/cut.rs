@@ -768,12 +768,9 @@ mod tests {
     /// graph is the one built from scratch (no ties on a scanned mesh), field by field.
     #[test]
     fn updated_cut_graphs_are_the_ones_built_anew() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/meshes/bunny.obj");
-        let Ok(loaded) = crate::load::load_mesh(std::path::Path::new(path)) else {
-            eprintln!("skipped: {path} is missing");
+        let Some(mesh) = crate::load::shared_test_mesh("bunny.obj") else {
             return;
         };
-        let mesh = loaded.mesh;
         let rots = Rots::new(4);
         let inner = interior(&mesh, 97);
         let mut r = vec![0i64; mesh.n_edges()];

@@ -1541,12 +1541,9 @@ mod tests {
     /// tries' then are too), and where the first map needs none.
     #[test]
     fn tries_started_beside_the_first_solve_give_the_same_map() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/meshes/spot.obj");
-        let Ok(loaded) = crate::load::load_mesh(std::path::Path::new(path)) else {
-            eprintln!("skipped: {path} is missing");
+        let Some(mesh) = crate::load::shared_test_mesh("spot.obj") else {
             return;
         };
-        let mesh = loaded.mesh;
         let (mut kept, mut rerounded, mut none_needed) = (0, 0, 0);
         for (n, target) in [(4, Some(1500)), (6, Some(1500)), (4, None)] {
             let mut params = FieldParams {
