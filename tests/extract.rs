@@ -130,6 +130,42 @@ fn noise_gives_same_result() {
     }
 }
 
+/// Vertices a hair off a lattice point (more than the snap tolerance of 1e-4, so not snapped onto
+/// it): the lattice point then lies within the tolerance of two or more of the vertex's edges'
+/// lines. It is one grid point all the same, and the grid is the plain one.
+#[test]
+fn a_lattice_point_a_hair_from_a_vertex_is_one_grid_point() {
+    let mesh = generate::grid(10, 10, 1.0, 1.0);
+    let s = 10.0;
+    let nudges = [
+        ([0.3, 0.5], [0.0, 1.3e-4]),
+        ([0.5, 0.5], [0.0, -1.3e-4]),
+        ([0.7, 0.5], [1.3e-4, 0.0]),
+        ([0.5, 0.3], [-1.3e-4, 0.0]),
+        ([0.5, 0.7], [1.1e-4, 1.1e-4]),
+        ([0.3, 0.3], [-1.1e-4, 1.1e-4]),
+    ];
+    let uv = vertex_uvs(&mesh, |p| {
+        let mut q = [s * p.x, s * p.y];
+        for (at, by) in nudges {
+            if (p.x - at[0]).abs() < 1e-9 && (p.y - at[1]).abs() < 1e-9 {
+                q = [q[0] + by[0], q[1] + by[1]];
+            }
+        }
+        q
+    });
+    let opts = ExtractOptions {
+        relax: None,
+        ..ExtractOptions::default()
+    };
+    let r = extract(&mesh, &uv, 4, &opts).unwrap();
+    assert_manifold(&r);
+    assert_eq!(r.patched_places, 0);
+    assert_eq!(r.positions.len(), 121);
+    assert_eq!(r.faces.len(), 100);
+    assert_eq!(quality(&r, &mesh).irregular_vertices, 0);
+}
+
 /// A flat square whose right half's chart is rotated by 90° and translated by an integer
 /// vector: a seamless parameterization with rotational transitions along the cut.
 #[test]

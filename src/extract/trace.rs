@@ -111,11 +111,10 @@ impl<'p, 'm> Grid<'p, 'm> {
             for x in (lo.x - tol).ceil() as i64..=(hi.x + tol).floor() as i64 {
                 for y in (lo.y - tol).ceil() as i64..=(hi.y + tol).floor() as i64 {
                     let q = DVec2::new(x as f64, y as f64);
-                    if cross(ab, q - a).abs() > tol * len2.sqrt() {
+                    let Some((t, dist)) = on_edge(a, b, q, tol) else {
                         continue;
-                    }
-                    let t = (q - a).dot(ab) / len2;
-                    if (q - a).length() <= tol || (q - b).length() <= tol || t <= 0.0 || t >= 1.0 {
+                    };
+                    if nearer_edge_claims(p, h0, q, dist) {
                         continue;
                     }
                     let pos = mesh
@@ -443,6 +442,45 @@ fn is_corner(mesh: &crate::mesh::TriMesh, h: usize) -> bool {
     let prev = mesh.prev(last);
     let (a, b) = (mesh.vector(prev), mesh.vector(h));
     a.angle_between(b) > 30f64.to_radians()
+}
+
+/// Where lattice point `q` is on the segment `a`–`b` up to `tol` (within `tol` of its line,
+/// strictly between its ends and not within `tol` of either; the tolerance absorbs a foreign
+/// map's float noise), its parameter along it and its distance from the line.
+fn on_edge(a: DVec2, b: DVec2, q: DVec2, tol: f64) -> Option<(f64, f64)> {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    if len2 <= 1e-24 {
+        return None;
+    }
+    let dist = cross(ab, q - a).abs() / len2.sqrt();
+    let t = (q - a).dot(ab) / len2;
+    if dist > tol || (q - a).length() <= tol || (q - b).length() <= tol || t <= 0.0 || t >= 1.0 {
+        return None;
+    }
+    Some((t, dist))
+}
+
+/// Whether another edge of a face at halfedge `h0` (either side) holds lattice point `q` (in
+/// `h0`'s chart) nearer than `dist`, or as near with a lower edge index. A point a hair from a
+/// vertex (between one and a few tolerances: not snapped onto it) lies within the tolerance of
+/// several of its edges' lines; each used to take it as a grid point of its own, and the
+/// duplicates' traces did not meet (a box with its creases on grid lines: 48 patched places).
+/// Along the vertex's fan the lines' distances grow away from the face the point is in, so
+/// comparing the edges of one face at a time leaves only the nearest.
+fn nearer_edge_claims(p: &Param, h0: usize, q: DVec2, dist: f64) -> bool {
+    let mesh = p.mesh;
+    let e = mesh.edge(h0);
+    let sides = [
+        Some((h0, q)),
+        mesh.twin(h0).map(|h1| (h1, p.map_point(h0, q))),
+    ];
+    sides.into_iter().flatten().any(|(h, q)| {
+        [mesh.next(h), mesh.prev(h)].into_iter().any(|k| {
+            on_edge(p.lat[k], p.lat[mesh.next(k)], q, p.tol)
+                .is_some_and(|(_, d)| d < dist || (d == dist && mesh.edge(k) < e))
+        })
+    })
 }
 
 /// A lattice point on the line `cross(d, p) = level`.
