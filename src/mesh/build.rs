@@ -24,6 +24,40 @@ pub struct RepairReport {
     pub flipped_faces: Vec<u32>,
 }
 
+/// A warning when boundary vertices share their position with another boundary vertex: the
+/// faces on either side are not connected there (an unwelded triangle soup, or seams an
+/// exporter split), so the field, the cut graph and the grid treat the seam as a boundary and
+/// the remesh is cut open along it. Nothing is welded: that could join surfaces meant to touch
+/// only, and a repair here never changes what the file says is connected.
+fn unwelded(mesh: &TriMesh, original_vertex: &[u32], soup: &PolygonSoup) -> Option<String> {
+    let mut at: HashMap<[u64; 3], u32> = HashMap::new();
+    let (mut count, mut first) = (0usize, None);
+    for v in 0..mesh.n_vertices() {
+        if !mesh.is_boundary_vertex(v) {
+            continue;
+        }
+        let key = mesh.position(v).to_array().map(|x| (x + 0.0).to_bits());
+        match at.entry(key) {
+            std::collections::hash_map::Entry::Occupied(_) => {
+                count += 1;
+                first.get_or_insert(v);
+            }
+            std::collections::hash_map::Entry::Vacant(e) => {
+                e.insert(v as u32);
+            }
+        }
+    }
+    let first = first?;
+    let components = mesh.face_components().1;
+    Some(format!(
+        "{count} boundary vertex(es) lie exactly on another one ({components} component(s) of \
+         faces; first: {}): the faces there are not connected (an unwelded triangle soup or \
+         split seams?); the solve treats them as boundaries; weld the vertices in a mesh tool \
+         if they should be one surface",
+        soup.describe_vertex(original_vertex[first] as usize)
+    ))
+}
+
 impl TriMesh {
     /// Builds a mesh from raw positions and triangles (generated meshes, tests).
     pub fn from_triangles(
@@ -126,6 +160,9 @@ impl TriMesh {
 
         let mesh = TriMesh::with_connectivity(positions, faces);
         mesh.check_vertex_manifold(&report.original_vertex, soup)?;
+        if let Some(w) = unwelded(&mesh, &report.original_vertex, soup) {
+            report.warnings.push(w);
+        }
         Ok((mesh, report))
     }
 

@@ -285,6 +285,48 @@ fn duplicates_and_unreferenced_vertices_are_dropped_keeping_order() {
     assert_eq!(report.warnings.len(), 2, "{:?}", report.warnings);
 }
 
+/// Two triangles meeting along an edge by position but not by index (an unwelded soup): built
+/// as they are (two components, four boundary edges each side), with a warning naming the
+/// first doubled vertex; welded ones, and a closed mesh, get none.
+#[test]
+fn an_unwelded_soup_is_warned_about() {
+    let p = vec![
+        DVec3::new(0.0, 0.0, 0.0),
+        DVec3::new(1.0, 0.0, 0.0),
+        DVec3::new(0.0, 1.0, 0.0),
+        DVec3::new(1.0, 0.0, 0.0),
+        DVec3::new(1.0, 1.0, 0.0),
+        DVec3::new(0.0, 1.0, 0.0),
+    ];
+    let soup = PolygonSoup {
+        positions: p.clone(),
+        triangles: vec![[0, 1, 2], [3, 4, 5]],
+        ..Default::default()
+    };
+    let (m, report) = TriMesh::from_soup(&soup).unwrap();
+    assert_eq!(m.n_vertices(), 6);
+    assert_eq!(report.warnings.len(), 1, "{:?}", report.warnings);
+    assert!(
+        report.warnings[0].contains("2 boundary vertex(es) lie exactly on another one")
+            && report.warnings[0].contains("vertex 3"),
+        "{:?}",
+        report.warnings
+    );
+    let welded = PolygonSoup {
+        positions: vec![p[0], p[1], p[2], p[4]],
+        triangles: vec![[0, 1, 2], [1, 3, 2]],
+        ..Default::default()
+    };
+    assert!(TriMesh::from_soup(&welded).unwrap().1.warnings.is_empty());
+    let (p, f) = octahedron();
+    let closed = PolygonSoup {
+        positions: p,
+        triangles: f,
+        ..Default::default()
+    };
+    assert!(TriMesh::from_soup(&closed).unwrap().1.warnings.is_empty());
+}
+
 #[test]
 fn degenerate_nan_range_and_empty_inputs_are_errors() {
     let p = vec![
