@@ -105,8 +105,16 @@ fn torus_regular_grid() {
 #[test]
 fn noise_gives_same_result() {
     let mesh = generate::grid(10, 10, 1.0, 1.0);
-    for s in [5.0, 10.0] {
-        let clean = vertex_uvs(&mesh, |p| [s * p.x, s * p.y]);
+    // Shifted charts put lattice points inside edges (vertices off the lattice): noise there
+    // must neither lose nor double them.
+    for (s, sh) in [
+        (5.0, [0.0, 0.0]),
+        (10.0, [0.0, 0.0]),
+        (20.0, [0.5, 0.5]),
+        (20.0, [0.5, 0.0]),
+        (20.0, [0.25, 0.75]),
+    ] {
+        let clean = vertex_uvs(&mesh, |p| [s * p.x + sh[0], s * p.y + sh[1]]);
         let mut seed = 12345u64;
         let noisy: Vec<[f64; 2]> = clean
             .iter()

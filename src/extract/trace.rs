@@ -476,10 +476,13 @@ fn nearer_edge_claims(p: &Param, h0: usize, q: DVec2, dist: f64) -> bool {
         mesh.twin(h0).map(|h1| (h1, p.map_point(h0, q))),
     ];
     sides.into_iter().flatten().any(|(h, q)| {
-        [mesh.next(h), mesh.prev(h)].into_iter().any(|k| {
-            on_edge(p.lat[k], p.lat[mesh.next(k)], q, p.tol)
-                .is_some_and(|(_, d)| d < dist || (d == dist && mesh.edge(k) < e))
-        })
+        // In a folded face the two edges may hold the lattice point on two sheets of the fold:
+        // two grid points, traced as such.
+        p.face_ok[h / 3]
+            && [mesh.next(h), mesh.prev(h)].into_iter().any(|k| {
+                on_edge(p.lat[k], p.lat[mesh.next(k)], q, p.tol)
+                    .is_some_and(|(_, d)| d < dist || (d == dist && mesh.edge(k) < e))
+            })
     })
 }
 
