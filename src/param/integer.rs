@@ -138,9 +138,8 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// overflow of i128). `robust` pivots each row on its smallest entry (most often ±1: the
 /// other columns then only lose a multiple of it) and reduces the columns still to be
 /// eliminated whenever they grow ([`reduce_if_large`]). It is the fallback, not the rule: the
-/// basis it gives is as good a lattice basis, but after the final reduction the rounding lands
-/// elsewhere, and over the 32 constrained sweep solves that was worse as often as better
-/// (patched places on max-planck with features at 60° 46 → 79, fandisk N = 6 at 60° 84 → 67).
+/// same lattice in another basis rounds elsewhere, and over the constrained sweep that was worse
+/// more often than better (`docs/untangling.md`).
 fn kernel_basis(
     rows: &[Vec<(usize, i128)>],
     n: usize,
