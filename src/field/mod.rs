@@ -407,8 +407,40 @@ fn field_with_analysis<T: Send>(
     };
     lap("thin parts", &mut timings);
     let radius = params.cancel_pairs_within * grid_size;
+    let lone_torus = {
+        let t = mesh.topology();
+        t.genus == 1 && t.boundary_loops == 0 && t.components.len() == 1
+    };
     let cancel = |theta: &[f64], turns: &[i64]| {
-        cancel::cancel_close_pairs(mesh, &tr, theta, turns, n, radius)
+        let near = cancel::cancel_close_pairs(mesh, &tr, theta, turns, n, radius);
+        if !lone_torus {
+            return near;
+        }
+        // A closed torus whose field keeps one pair of opposite singularities (and no other):
+        // the loop around the pair is the commutator of the two handle loops, a translation
+        // only, and with handles that do not turn the frames (a torus's curvature lines) no
+        // translation at all, so every seamless map puts both on one point and collapses the
+        // edges between them (a torus with sliver triangles: two faces of zero area left
+        // after the repair, which no re-rounding could part). Cancelled at any distance.
+        let current = near.as_ref().map_or(turns, |(r, _)| r.as_slice());
+        let singular: Vec<i32> = index::turn_indices(mesh, &tr, current, n)
+            .into_iter()
+            .flatten()
+            .filter(|&k| k != 0)
+            .collect();
+        if singular.len() != 2 || singular[0] + singular[1] != 0 {
+            return near;
+        }
+        match cancel::cancel_close_pairs(mesh, &tr, theta, current, n, f64::INFINITY) {
+            Some((r, more)) => {
+                let mut released = near.map(|(_, a)| a).unwrap_or_default();
+                released.extend(more);
+                released.sort_unstable();
+                released.dedup();
+                Some((r, released))
+            }
+            None => near,
+        }
     };
     // Renormalized ([`smoothing::RENORMALIZE_STEPS`]): every relaxed solution with
     // `renormalize`; one anchored almost nowhere ([`smoothing::unanchored`]: a sphere, all
