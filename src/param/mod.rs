@@ -316,26 +316,38 @@ pub struct QuadCover {
     relax_last: bool,
 }
 
-/// Meshes from this many faces start the crowded tries beside the first solve
+/// Meshes from this many faces (up to [`MISWOUND_TRIES_MAX_FACES`]) start the crowded tries
+/// beside the first solve
 /// ([`QuadCover::solve_previewing`]): where a try costs seconds, waiting for the first map to
 /// ask for it doubles the repair's wall time; on small meshes a try the first map then does not
 /// need would only take the core its repair runs on.
 const SPECULATE_FACES: usize = 200_000;
 
 /// Whether [`QuadCover::solve_previewing`] starts the crowded tries beside the first solve on
-/// this mesh ([`SPECULATE_FACES`]).
+/// this mesh ([`SPECULATE_FACES`], [`MISWOUND_TRIES_MAX_FACES`]).
 pub fn speculates(mesh: &TriMesh) -> bool {
-    mesh.n_faces() >= SPECULATE_FACES
+    (SPECULATE_FACES..MISWOUND_TRIES_MAX_FACES).contains(&mesh.n_faces())
 }
 
-/// Whether a map needs no crowded try: no fold and no mis-wound vertex; under curves a few
+/// From this many faces on, a fold-free map takes no crowded try for wrongly wound vertices
+/// alone (folds still take them), and the tries are no longer started beside the first solve
+/// (they are wanted too rarely there). The windings re-rounding already stops at this size
+/// (`reround::WINDING_MAX_FACES`) for the same reason. igea subdivided once (1.07 M faces,
+/// default settings) spent 11 of its 15.3 s of repair in three tries for 28 → 20 wrongly wound
+/// vertices, of 537 000; the target there is 5 s.
+const MISWOUND_TRIES_MAX_FACES: usize = 500_000;
+
+/// Whether a map needs no crowded try: no fold and no mis-wound vertex (from
+/// [`MISWOUND_TRIES_MAX_FACES`] faces on, no fold); under curves a few
 /// mis-wound vertices ([`crowded::FEW_MISWOUND`]) are let be (most constrained maps keep a few,
 /// and a second solve for those doubled the repair time of the constraint sweep for 10 % fewer
 /// of them; many are a crowded cluster at a coarse density, what the finer grid is for,
 /// docs/untangling.md).
 fn crowded_done(p: &Parameterization, under_curves: bool) -> bool {
     p.flipped_faces == 0
-        && (p.miswound.is_empty() || (under_curves && p.miswound.len() <= crowded::FEW_MISWOUND))
+        && (p.miswound.is_empty()
+            || (under_curves && p.miswound.len() <= crowded::FEW_MISWOUND)
+            || p.uv.len() >= 3 * MISWOUND_TRIES_MAX_FACES)
 }
 
 /// Sets `stop` for the tries after the i-th when the i-th is done (the ladder would stop
