@@ -407,7 +407,8 @@ fn field_with_analysis<T: Send>(
     };
     lap("thin parts", &mut timings);
     let radius = params.cancel_pairs_within * grid_size;
-    let lone_torus = {
+    // χ first: the components' walk only for the meshes that can be a closed torus.
+    let lone_torus = mesh.euler_characteristic() == 0 && {
         let t = mesh.topology();
         t.genus == 1 && t.boundary_loops == 0 && t.components.len() == 1
     };

@@ -4,7 +4,7 @@
 //! unreferenced vertices (repaired), non-manifold edges, orientation (repaired where the component
 //! is orientable), non-manifold vertices. Repairs never move a vertex.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use glam::DVec3;
 
@@ -30,21 +30,13 @@ pub struct RepairReport {
 /// the remesh is cut open along it. Nothing is welded: that could join surfaces meant to touch
 /// only, and a repair here never changes what the file says is connected.
 fn unwelded(mesh: &TriMesh, original_vertex: &[u32], soup: &PolygonSoup) -> Option<String> {
-    let mut at: HashMap<[u64; 3], u32> = HashMap::new();
+    let mut seen: HashSet<[u64; 3]> = HashSet::new();
     let (mut count, mut first) = (0usize, None);
-    for v in 0..mesh.n_vertices() {
-        if !mesh.is_boundary_vertex(v) {
-            continue;
-        }
-        let key = mesh.position(v).to_array().map(|x| (x + 0.0).to_bits());
-        match at.entry(key) {
-            std::collections::hash_map::Entry::Occupied(_) => {
-                count += 1;
-                first.get_or_insert(v);
-            }
-            std::collections::hash_map::Entry::Vacant(e) => {
-                e.insert(v as u32);
-            }
+    for v in (0..mesh.n_vertices()).filter(|&v| mesh.is_boundary_vertex(v)) {
+        // +0.0 makes −0.0 the same key, as the STL reader's welding does.
+        if !seen.insert(mesh.position(v).to_array().map(|x| (x + 0.0).to_bits())) {
+            count += 1;
+            first.get_or_insert(v);
         }
     }
     let first = first?;
