@@ -1233,3 +1233,65 @@ fn crowded_singularities_get_a_finer_grid_under_curves_too() {
     assert_eq!(refined.param.singularities, uniform.param.singularities);
     check_geometric(&base, &state, &refined);
 }
+
+/// `generate::grid` on the unit square mapped through `f` (u, v) → position.
+fn mapped_grid(
+    nx: usize,
+    ny: usize,
+    f: impl Fn(f64, f64) -> glam::DVec3,
+) -> std::sync::Arc<TriMesh> {
+    let flat = generate::grid(nx, ny, 1.0, 1.0);
+    let positions = flat.positions().iter().map(|p| f(p.x, p.y)).collect();
+    std::sync::Arc::new(TriMesh::from_triangles(positions, flat.faces().to_vec()).unwrap())
+}
+
+/// Open patches whose curvature directions cross their aligned boundary: the boundary's
+/// directions reach across the whole patch, the curvature faces pull the field towards the
+/// diagonal, and the field rounded into singularity pairs the map sheared around. A helicoid of
+/// one turn (r in [1, 2], pitch π; its curvature lines at 45° to its rulings and helices):
+/// 77 singularities (a generated one: 2, and 353 folded faces after the repair), conformal
+/// distortion 1.41; a 40:1 sheet bent into a wave 4 singularities and a patched place in the
+/// remesh (2026-12-05, before `field::boundary_yield`). Now the curvature faces that contradict
+/// the boundary yield: these four-sided patches need no singularity and get none, and nothing
+/// folds or is patched.
+#[test]
+fn curvature_yields_to_an_aligned_boundary_it_crosses() {
+    use glam::DVec3;
+    use std::f64::consts::{PI, TAU};
+    let cases: [(&str, std::sync::Arc<TriMesh>); 2] = [
+        (
+            "helicoid",
+            mapped_grid(100, 20, |u, v| {
+                let (r, t) = (1.0 + v, TAU * u);
+                DVec3::new(r * t.cos(), r * t.sin(), 0.5 * t)
+            }),
+        ),
+        (
+            "wavy sheet",
+            mapped_grid(400, 10, |u, v| {
+                DVec3::new(4.0 * u, 0.1 * v, 0.15 * (3.0 * PI * u).sin() * (1.0 + v))
+            }),
+        ),
+    ];
+    for (what, mesh) in cases {
+        let base = Base::for_mesh(mesh, Settings::default()).unwrap();
+        let (state, solved) = replay_solve(&base, &[Edit::AlignBoundary { on: true }]);
+        let p = &solved.param;
+        check_geometric(&base, &state, &solved);
+        eprintln!(
+            "{what} aligned: {} singularities, {} folds before the repair, {} after, conformal distortion {:.3} (p99 {:.2})",
+            p.singularities.len(),
+            p.flipped_faces_before_repair,
+            p.flipped_faces,
+            p.conformal_distortion.mean,
+            p.conformal_distortion.p99
+        );
+        assert!(p.singularities.is_empty(), "{what}");
+        assert_eq!(p.flipped_faces, 0, "{what}");
+        assert!(p.conformal_distortion.mean < 1.3, "{what}");
+        let (remesh, share, _) = remesh_along_curves(&base, &state, &solved, what);
+        remesh_checks::assert_manifold(&remesh, what);
+        assert_eq!(remesh.patched_places, 0, "{what}");
+        assert!(share > 0.99, "{what}: {share}");
+    }
+}

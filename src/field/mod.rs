@@ -18,6 +18,7 @@
 //! In angles (θ = angle of U in the face basis, κ_ij the transport angle, [`transport`]):
 //! θ_j ≈ θ_i + κ_ij + 2π r_ij / N.
 
+mod boundary_yield;
 pub(crate) mod cancel;
 pub mod classify;
 pub mod curvature;
@@ -379,16 +380,30 @@ fn field_with_analysis<T: Send>(
         Guidance::Smooth => vec![0.0; mesh.n_faces()],
     };
     let mut reference = reference;
+    // Fetched here only when the boundary yield needs it (it is built beside this work).
+    let mut early_layout = None;
     if let Some(aligned) = &params.aligned
         && params.tau > 0.0
     {
+        let mut on_curve = vec![false; omega.len()];
         for &(f, angle) in aligned.iter() {
             let f = f as usize;
             if f < omega.len() && angle.is_finite() {
                 reference[f] = angle;
                 omega[f] = CURVE_WEIGHT / params.tau;
+                on_curve[f] = true;
             }
         }
+        let layout = early_layout.insert(layout()?);
+        boundary_yield::yield_to_boundary(
+            n,
+            &tr,
+            &reference,
+            &mut omega,
+            &on_curve,
+            CURVE_WEIGHT,
+            layout,
+        )?;
     }
     lap("classification + reliability", &mut timings);
     let mut multipliers = density::face_multipliers(mesh, &params.scale, &curvature)?;
@@ -464,7 +479,10 @@ fn field_with_analysis<T: Send>(
         }
         params.aligned.is_some() && at_least((n as i32 / 2).max(2))
     };
-    let layout = layout()?;
+    let layout = match early_layout {
+        Some(layout) => layout,
+        None => layout()?,
+    };
     let sm = smoothing::smooth(&smoothing::SmoothInput {
         n,
         transport: &tr,

@@ -741,6 +741,42 @@ fn smooth_releasing_by(inp: &SmoothInput, release: Release) -> Result<SmoothOutp
     })
 }
 
+/// The relaxed (complex) minimiser z per face for the alignment weights `w` (τω, already
+/// scaled) towards `theta0`, with an anchor in every component that has no weight: the field the
+/// weighted faces alone would extend, and by |z| how firmly they determine it there (near 1
+/// beside them, decaying where their directions wind or cancel out).
+pub fn relaxed_z(
+    n: u32,
+    transport: &EdgeTransport,
+    theta0: &[f64],
+    w: &[f64],
+    layout: &DualLayout,
+) -> Result<Vec<c64>, SolverError> {
+    let nf = theta0.len();
+    let components = DualComponents::new(w, &layout.pattern);
+    let anchor = components.anchors(w);
+    let inp = SmoothInput {
+        n,
+        transport,
+        theta0,
+        omega: w,
+        tau: 1.0,
+        relaxation: Relaxation::Complex,
+        adjust_turns: None,
+        renormalize: None,
+        analysis: None,
+        layout: Some(layout),
+        keep_system: false,
+    };
+    debug_assert_eq!(w.len(), nf);
+    let (matrix, rhs) = relaxed_complex_system(&inp, w, &anchor, layout)?;
+    let hierarchy = Multigrid::new(&matrix)?;
+    drop(matrix);
+    Ok(hierarchy
+        .solve(&rhs, None, RELAXED_TOLERANCE, RELAXED_MAX_ITERATIONS)?
+        .x)
+}
+
 /// The factored fixed-matching system of a smoothing (dual Laplacian + τω + anchors, before the
 /// cancellation released any weight), with the alignment targets: re-solves the angles for
 /// other integer turns and further released faces (thesis sec. 3.3: after moving singularities,
