@@ -1295,3 +1295,39 @@ fn curvature_yields_to_an_aligned_boundary_it_crosses() {
         assert!(share > 0.99, "{what}: {share}");
     }
 }
+
+/// Right-angled corners of an aligned boundary with six-fold symmetry: a 90° corner lies
+/// halfway between the lattice corners of 60° and 120°, and the smoothing chose each corner on
+/// its own: a flat square got a ±1/6 pair beside a corner, a 10 × 1 rectangle four
+/// singularities (2026-12-05). Decided per patch (`constraint::acute_corners`), a rectangle
+/// takes two corners of 60° and two of 120° and needs no singularity.
+#[test]
+fn right_angled_boundaries_with_six_fold_symmetry_need_no_singularity() {
+    for (what, nx, ny, sx, sy) in [
+        ("square", 40, 40, 1.0, 1.0),
+        ("10 × 1 rectangle", 200, 20, 10.0, 1.0),
+    ] {
+        let mesh = std::sync::Arc::new(generate::grid(nx, ny, sx, sy));
+        let settings = Settings {
+            symmetry: 6,
+            ..Settings::default()
+        };
+        let base = Base::for_mesh(mesh, settings).unwrap();
+        let (state, solved) = replay_solve(&base, &[Edit::AlignBoundary { on: true }]);
+        let p = &solved.param;
+        check_geometric(&base, &state, &solved);
+        eprintln!(
+            "{what}, N = 6, aligned: {} singularities, {} folds, conformal distortion {:.3} (p99 {:.2})",
+            p.singularities.len(),
+            p.flipped_faces,
+            p.conformal_distortion.mean,
+            p.conformal_distortion.p99
+        );
+        assert!(p.singularities.is_empty(), "{what}");
+        assert_eq!(p.flipped_faces, 0, "{what}");
+        let (remesh, share, _) = remesh_along_curves(&base, &state, &solved, what);
+        remesh_checks::assert_manifold(&remesh, what);
+        assert_eq!(remesh.patched_places, 0, "{what}");
+        assert!(share > 0.99, "{what}: {share}");
+    }
+}

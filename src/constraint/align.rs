@@ -122,7 +122,9 @@ pub fn alignment<'a>(
 /// triangle's 45° corners, N = 4) the smoothing's choice is a coin toss, and the wrong side
 /// collapses the corner. At an apex on the boundary the faces beyond its fan within `reach`
 /// (model units) are held too ([`beyond_the_fan`]); an interior apex's fan closes around it,
-/// and holding the fan is enough.
+/// and holding the fan is enough. Boundary corners halfway between two lattice corners are
+/// held the same way to the corner [`lattice_corners`] decides for their loop (their
+/// alignments are returned, not their apexes or wedges).
 pub fn acute_corners<'a>(
     mesh: &TriMesh,
     curves: impl IntoIterator<Item = &'a Curve>,
@@ -152,6 +154,7 @@ pub fn acute_corners<'a>(
     }
     corners.sort_unstable();
     corners.dedup();
+    let mut sectors = Vec::new();
     for m in corners {
         let fan: Vec<usize> = mesh.outgoing(m).collect();
         let k = fan.len();
@@ -184,56 +187,85 @@ pub fn acute_corners<'a>(
             } else {
                 (first..k).chain(0..last).collect()
             };
-            let alpha: f64 = faces.iter().map(|&i| mesh.corner_angle(fan[i])).sum();
-            if faces.is_empty() || alpha >= step * ACUTE_FRACTION {
+            if faces.is_empty() {
                 continue;
             }
+            let alpha: f64 = faces.iter().map(|&i| mesh.corner_angle(fan[i])).sum();
+            sectors.push(Sector {
+                apex: m,
+                fan: fan.clone(),
+                first,
+                last,
+                faces,
+                alpha,
+                boundary,
+            });
+        }
+    }
+    let lattice = lattice_corners(mesh, &sectors, step);
+    for (sector, corner) in sectors.iter().zip(lattice) {
+        let Some(corner) = corner else { continue };
+        let Sector {
+            apex: m,
+            fan,
+            first,
+            last,
+            faces,
+            alpha,
+            boundary,
+        } = sector;
+        let (m, first, last, alpha) = (*m, *first, *last, *alpha);
+        let k = fan.len();
+        let acute = alpha < step * ACUTE_FRACTION;
+        if acute {
             out.apexes.push(m);
-            let mut wedge: Vec<usize> = faces.iter().map(|&i| mesh.face_of(fan[i])).collect();
-            let turn = (alpha - step) / alpha;
-            let mut before = 0.0;
-            for &i in &faces {
-                let h = fan[i];
-                let angle = mesh.corner_angle(h);
-                // The frame's angle at the face's middle, from the face's first edge.
-                let theta = (before + angle / 2.0) * turn - before;
-                let f = mesh.face_of(h);
-                let e = mesh.vector(h).normalize_or_zero();
-                let normal = mesh.face_normal(f);
-                out.alignments.push(CurveAlignment {
-                    face: f,
-                    direction: theta.cos() * e + theta.sin() * normal.cross(e),
-                });
-                before += angle;
-            }
-            // The far ends of the two curves' edges at the apex.
-            let far = |i: usize| {
-                if i < k {
-                    mesh.to(fan[i])
-                } else {
-                    mesh.from(mesh.prev(fan[k - 1]))
-                }
-            };
-            let (d1, d2) = (
-                mesh.position(far(first)) - mesh.position(m),
-                mesh.position(far(last)) - mesh.position(m),
-            );
-            let beyond = if boundary {
-                beyond_the_fan(mesh, &curve_of, m, &wedge, [d1, d2], reach)
+        }
+        let mut wedge: Vec<usize> = faces.iter().map(|&i| mesh.face_of(fan[i])).collect();
+        let turn = (alpha - corner) / alpha;
+        let mut before = 0.0;
+        for &i in faces {
+            let h = fan[i];
+            let angle = mesh.corner_angle(h);
+            // The frame's angle at the face's middle, from the face's first edge.
+            let theta = (before + angle / 2.0) * turn - before;
+            let f = mesh.face_of(h);
+            let e = mesh.vector(h).normalize_or_zero();
+            let normal = mesh.face_normal(f);
+            out.alignments.push(CurveAlignment {
+                face: f,
+                direction: theta.cos() * e + theta.sin() * normal.cross(e),
+            });
+            before += angle;
+        }
+        // The far ends of the two curves' edges at the apex.
+        let far = |i: usize| {
+            if i < k {
+                mesh.to(fan[i])
             } else {
-                Vec::new()
-            };
-            for (f, beta) in beyond {
-                // The curve's direction in the face's plane, turned by the frame's angle there.
-                let normal = mesh.face_normal(f);
-                let e = (d1 - normal * normal.dot(d1)).normalize_or_zero();
-                let theta = beta * alpha * turn;
-                out.alignments.push(CurveAlignment {
-                    face: f,
-                    direction: theta.cos() * e + theta.sin() * normal.cross(e),
-                });
-                wedge.push(f);
+                mesh.from(mesh.prev(fan[k - 1]))
             }
+        };
+        let (d1, d2) = (
+            mesh.position(far(first)) - mesh.position(m),
+            mesh.position(far(last)) - mesh.position(m),
+        );
+        let beyond = if *boundary {
+            beyond_the_fan(mesh, &curve_of, m, &wedge, [d1, d2], reach)
+        } else {
+            Vec::new()
+        };
+        for (f, beta) in beyond {
+            // The curve's direction in the face's plane, turned by the frame's angle there.
+            let normal = mesh.face_normal(f);
+            let e = (d1 - normal * normal.dot(d1)).normalize_or_zero();
+            let theta = beta * alpha * turn;
+            out.alignments.push(CurveAlignment {
+                face: f,
+                direction: theta.cos() * e + theta.sin() * normal.cross(e),
+            });
+            wedge.push(f);
+        }
+        if acute {
             out.wedges.push((m, wedge));
         }
     }
@@ -334,6 +366,105 @@ pub fn faces_reached<T>(
     out
 }
 
+/// A corner between two curves: the apex's faces `faces` (indices into `fan`, the apex's
+/// outgoing half-edges) between the curve edges `first` and `last`, spanning `alpha`.
+struct Sector {
+    apex: usize,
+    fan: Vec<usize>,
+    first: usize,
+    last: usize,
+    faces: Vec<usize>,
+    alpha: f64,
+    boundary: bool,
+}
+
+/// The lattice corner (a multiple of `step` = 2π/N) each sector is held to, or None where the
+/// smoothing's smallest turn is left to choose. Acute sectors ([`ACUTE_FRACTION`]) take one
+/// step. A boundary sector halfway between two lattice corners (within [`AMBIGUOUS_BAND`] of
+/// (j + ½) step: 90° for N = 6, 135° for N = 4) is a coin toss for the smoothing too (flat,
+/// the relaxed field of a square's rim, N = 6, is real: +1 along two sides, −1 along the other
+/// two, zero on the diagonals), and tossed independently the corners of one loop add up to
+/// the wrong turn: a flat square with its boundary aligned, N = 6, got a ±1/6 pair beside a
+/// corner and a patched place, a 10 × 1 rectangle four singularities. Such sectors are decided
+/// per boundary loop, so that the loop's corners together turn as its geometry does: the sum
+/// of (lattice corner − α) over the loop's corners, the others at their nearest lattice
+/// corner, kept nearest 0, corner by corner along the loop (ties: the smaller corner), on
+/// loops with at least two such corners. A disc
+/// bounded by lattice lines turns by Σ (π − corner) in the plane of the map, by Σ (π − α) +
+/// ∫K + ∫k_g on the surface; the difference is what its singularities must make up, and for
+/// the square it is none: two corners of 60° and two of 120°. Sectors at an interior
+/// apex (three creases meeting at a box's corner) are left to the smoothing: their corners
+/// also make the apex a cone, which the sums do not weigh (decided by the patches, and with
+/// the apex's sum as a second term, a box with features at 40°, N = 6, went from no fold to
+/// 103).
+fn lattice_corners(mesh: &TriMesh, sectors: &[Sector], step: f64) -> Vec<Option<f64>> {
+    let ambiguous = |s: &Sector| {
+        let x = s.alpha / step;
+        s.boundary && x >= ACUTE_FRACTION && (x.fract() - 0.5).abs() < AMBIGUOUS_BAND
+    };
+    let mut out: Vec<Option<f64>> = sectors
+        .iter()
+        .map(|s| (s.alpha < step * ACUTE_FRACTION).then_some(step))
+        .collect();
+    if !sectors.iter().any(ambiguous) {
+        return out;
+    }
+    // Each boundary vertex's loop and place along it.
+    let loops = mesh.boundary_loops();
+    let mut rank = vec![(usize::MAX, 0); mesh.n_vertices()];
+    for (l, lp) in loops.iter().enumerate() {
+        for (i, &h) in lp.iter().enumerate() {
+            rank[mesh.from(h)] = (l, i);
+        }
+    }
+    // Per loop the sum of (lattice corner − α) over its decided corners.
+    let mut excess = vec![0.0; loops.len()];
+    for (s, corner) in sectors.iter().zip(&out) {
+        let l = rank[s.apex].0;
+        if l < loops.len() && !ambiguous(s) {
+            let c = corner.unwrap_or_else(|| step * (s.alpha / step).round().max(1.0));
+            excess[l] += c - s.alpha;
+        }
+    }
+    // Along each loop, so that a rectangle's corners alternate (a parallelogram in the map; in
+    // the order of the apexes' numbers a 10 × 1 rectangle got a trapezoid, whose parallel sides
+    // differ in length by more than a cell, and two singularities).
+    let mut order: Vec<usize> = (0..sectors.len())
+        .filter(|&i| out[i].is_none() && ambiguous(&sectors[i]))
+        .collect();
+    order.sort_by_key(|&i| (rank[sectors[i].apex], i));
+    // A loop with a single halfway corner is left to the smoothing: balanced, it is decided by
+    // the other corners' distance to their lattice corners alone (camelhead's 270° corner,
+    // N = 6: the remesh's boundary along the input's 98.0 → 96.0 %). Two or more must
+    // complement each other.
+    let mut halfway = vec![0usize; loops.len()];
+    for &i in &order {
+        halfway[rank[sectors[i].apex].0] += 1;
+    }
+    order.retain(|&i| halfway[rank[sectors[i].apex].0] >= 2);
+    for i in order {
+        let s = &sectors[i];
+        let l = rank[s.apex].0;
+        let below = step * (s.alpha / step).floor().max(1.0);
+        let above = below + step;
+        let c = if (excess[l] + below - s.alpha).abs() <= (excess[l] + above - s.alpha).abs() {
+            below
+        } else {
+            above
+        };
+        excess[l] += c - s.alpha;
+        out[i] = Some(c);
+    }
+    out
+}
+
+/// Half the width of the band of corner angles, as a fraction of 2π/N around (j + ½) 2π/N,
+/// that [`lattice_corners`] decides per loop: 0.05, 87°–93° for N = 6, 130.5°–139.5° for
+/// N = 4. A CAD part's or a generated shape's right angles are well inside; 0.1 also took
+/// corners of scanned holes (the bunny's 233° corner at the scale of its edges, N = 4), where
+/// the loop's other corners are noise and the sum decided by it (4 → 10 patched places).
+pub const AMBIGUOUS_BAND: f64 = 0.05;
+
 /// Below this fraction of 2π/N a corner between two curves is acute ([`acute_corners`]): 0.52
 /// (46.8° for quads) takes the 45° corners of a right isosceles triangle whatever the mesh's
 /// noise; 0.6 (54°) also took a corner between 47° and 54° on the kitten with features at
@@ -343,7 +474,7 @@ pub const ACUTE_FRACTION: f64 = 0.52;
 /// What [`acute_corners`] finds.
 #[derive(Clone, Debug, Default)]
 pub struct AcuteCorners {
-    /// The turning frames of the faces inside the corners.
+    /// The turning frames of the faces inside the corners (and the halfway boundary corners).
     pub alignments: Vec<CurveAlignment>,
     /// The corners' apexes, sorted by vertex, without repeats.
     pub apexes: Vec<usize>,
