@@ -203,27 +203,18 @@ pub fn acute_corners<'a>(
         }
     }
     let lattice = lattice_corners(mesh, &sectors, step);
-    for (sector, corner) in sectors.iter().zip(lattice) {
+    for (s, corner) in sectors.iter().zip(lattice) {
         let Some(corner) = corner else { continue };
-        let Sector {
-            apex: m,
-            fan,
-            first,
-            last,
-            faces,
-            alpha,
-            boundary,
-        } = sector;
-        let (m, first, last, alpha) = (*m, *first, *last, *alpha);
+        let (m, fan, first, last, alpha) = (s.apex, &s.fan, s.first, s.last, s.alpha);
         let k = fan.len();
         let acute = alpha < step * ACUTE_FRACTION;
         if acute {
             out.apexes.push(m);
         }
-        let mut wedge: Vec<usize> = faces.iter().map(|&i| mesh.face_of(fan[i])).collect();
+        let mut wedge: Vec<usize> = s.faces.iter().map(|&i| mesh.face_of(fan[i])).collect();
         let turn = (alpha - corner) / alpha;
         let mut before = 0.0;
-        for &i in faces {
+        for &i in &s.faces {
             let h = fan[i];
             let angle = mesh.corner_angle(h);
             // The frame's angle at the face's middle, from the face's first edge.
@@ -249,7 +240,7 @@ pub fn acute_corners<'a>(
             mesh.position(far(first)) - mesh.position(m),
             mesh.position(far(last)) - mesh.position(m),
         );
-        let beyond = if *boundary {
+        let beyond = if s.boundary {
             beyond_the_fan(mesh, &curve_of, m, &wedge, [d1, d2], reach)
         } else {
             Vec::new()

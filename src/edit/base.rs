@@ -501,9 +501,24 @@ impl Base {
             None
         } else {
             let aligned = Arc::new(aligned);
+            // The faces along boundary edges of geometric curves (`field::boundary_yield`).
+            let on_curve = crate::constraint::curve_edges(
+                &self.mesh,
+                state
+                    .curves
+                    .values()
+                    .filter(|c| c.kind == crate::constraint::CurveKind::Geometric),
+            );
+            let along_boundary: Vec<u32> = on_curve
+                .iter()
+                .enumerate()
+                .filter(|&(e, &on)| on && self.tr.faces[e][1] == crate::field::transport::NO_FACE)
+                .map(|(e, _)| self.tr.faces[e][0])
+                .collect();
             let params = crate::field::FieldParams {
                 keep_system: true,
                 aligned: Some(aligned.clone()),
+                boundary_aligned: Some(Arc::new(along_boundary)),
                 ..self.settings.field_params()
             };
             let field =

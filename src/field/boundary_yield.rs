@@ -26,7 +26,7 @@
 //! releases 11 faces and moves folds and patched places both ways (measured, not kept).
 
 use super::smoothing::{self, DualLayout};
-use super::transport::{EdgeTransport, NO_FACE};
+use super::transport::EdgeTransport;
 use crate::sparse::{SolverError, c64};
 
 /// See the module documentation: ½, the curvature direction nearer the diagonal than the lines
@@ -35,25 +35,25 @@ use crate::sparse::{SolverError, c64};
 pub const YIELD_ABOVE: f64 = 0.5;
 
 /// Releases (sets ω to 0) the curvature faces that contradict the aligned boundary, among the
-/// faces with `omega` > 0 that are not `on_curve`; `on_curve` faces with a boundary edge are the
-/// boundary curves' faces, held to `reference` with `weight`. Returns how many were released.
+/// faces with `omega` > 0 that are not `on_curve`; the faces `along` a boundary curve (those of
+/// them `on_curve`) are held to `reference` with `weight`. Returns how many were released.
+#[allow(clippy::too_many_arguments)]
 pub fn yield_to_boundary(
     n: u32,
     transport: &EdgeTransport,
     reference: &[f64],
     omega: &mut [f64],
     on_curve: &[bool],
+    along: &[u32],
     weight: f64,
     layout: &DualLayout,
 ) -> Result<usize, SolverError> {
     let nf = omega.len();
     let mut w = vec![0.0; nf];
-    for f in &transport.faces {
-        if f[1] == NO_FACE {
-            let g = f[0] as usize;
-            if on_curve[g] {
-                w[g] = weight;
-            }
+    for &f in along {
+        let f = f as usize;
+        if f < nf && on_curve[f] {
+            w[f] = weight;
         }
     }
     let competing = (0..nf).any(|f| omega[f] > 0.0 && !on_curve[f]);

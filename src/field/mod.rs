@@ -216,6 +216,10 @@ pub struct FieldParams {
     /// [`CURVE_WEIGHT`] in place of their curvature alignment (with τ = 0 there is none).
     #[serde(skip)]
     pub aligned: Option<std::sync::Arc<Vec<(u32, f64)>>>,
+    /// Of the `aligned` faces, those along boundary edges of the curves: curvature faces that
+    /// contradict them yield (`boundary_yield`).
+    #[serde(skip)]
+    pub boundary_aligned: Option<std::sync::Arc<Vec<u32>>>,
 }
 
 /// Alignment weight τω of a face along a constraint curve, against the dual Laplacian's
@@ -243,6 +247,7 @@ impl Default for FieldParams {
             refine_thin: true,
             keep_system: false,
             aligned: None,
+            boundary_aligned: None,
         }
     }
 }
@@ -394,16 +399,21 @@ fn field_with_analysis<T: Send>(
                 on_curve[f] = true;
             }
         }
-        let layout = early_layout.insert(layout()?);
-        boundary_yield::yield_to_boundary(
-            n,
-            &tr,
-            &reference,
-            &mut omega,
-            &on_curve,
-            CURVE_WEIGHT,
-            layout,
-        )?;
+        if let Some(along) = &params.boundary_aligned
+            && !along.is_empty()
+        {
+            let layout = early_layout.insert(layout()?);
+            boundary_yield::yield_to_boundary(
+                n,
+                &tr,
+                &reference,
+                &mut omega,
+                &on_curve,
+                along,
+                CURVE_WEIGHT,
+                layout,
+            )?;
+        }
     }
     lap("classification + reliability", &mut timings);
     let mut multipliers = density::face_multipliers(mesh, &params.scale, &curvature)?;
