@@ -1245,6 +1245,35 @@ fn mapped_grid(
     std::sync::Arc::new(TriMesh::from_triangles(positions, flat.faces().to_vec()).unwrap())
 }
 
+/// Solves `mesh` with its boundary aligned and checks what a four-sided patch asks for: its
+/// boundary on lattice lines, no singularity, no fold, a manifold remesh along the boundary
+/// with no patched place. Returns the map.
+fn aligned_patch_needs_no_singularity(
+    mesh: std::sync::Arc<TriMesh>,
+    settings: Settings,
+    what: &str,
+) -> Parameterization {
+    let base = Base::for_mesh(mesh, settings).unwrap();
+    let (state, solved) = replay_solve(&base, &[Edit::AlignBoundary { on: true }]);
+    let p = &solved.param;
+    check_geometric(&base, &state, &solved);
+    eprintln!(
+        "{what} aligned: {} singularities, {} folds before the repair, {} after, conformal distortion {:.3} (p99 {:.2})",
+        p.singularities.len(),
+        p.flipped_faces_before_repair,
+        p.flipped_faces,
+        p.conformal_distortion.mean,
+        p.conformal_distortion.p99
+    );
+    assert!(p.singularities.is_empty(), "{what}");
+    assert_eq!(p.flipped_faces, 0, "{what}");
+    let (remesh, share, _) = remesh_along_curves(&base, &state, &solved, what);
+    remesh_checks::assert_manifold(&remesh, what);
+    assert_eq!(remesh.patched_places, 0, "{what}");
+    assert!(share > 0.99, "{what}: {share}");
+    solved.param
+}
+
 /// Open patches whose curvature directions cross their aligned boundary: the boundary's
 /// directions reach across the whole patch, the curvature faces pull the field towards the
 /// diagonal, and the field rounded into singularity pairs the map sheared around. A helicoid of
@@ -1258,76 +1287,35 @@ fn mapped_grid(
 fn curvature_yields_to_an_aligned_boundary_it_crosses() {
     use glam::DVec3;
     use std::f64::consts::{PI, TAU};
-    let cases: [(&str, std::sync::Arc<TriMesh>); 2] = [
-        (
-            "helicoid",
-            mapped_grid(100, 20, |u, v| {
-                let (r, t) = (1.0 + v, TAU * u);
-                DVec3::new(r * t.cos(), r * t.sin(), 0.5 * t)
-            }),
-        ),
-        (
-            "wavy sheet",
-            mapped_grid(400, 10, |u, v| {
-                DVec3::new(4.0 * u, 0.1 * v, 0.15 * (3.0 * PI * u).sin() * (1.0 + v))
-            }),
-        ),
-    ];
-    for (what, mesh) in cases {
-        let base = Base::for_mesh(mesh, Settings::default()).unwrap();
-        let (state, solved) = replay_solve(&base, &[Edit::AlignBoundary { on: true }]);
-        let p = &solved.param;
-        check_geometric(&base, &state, &solved);
-        eprintln!(
-            "{what} aligned: {} singularities, {} folds before the repair, {} after, conformal distortion {:.3} (p99 {:.2})",
-            p.singularities.len(),
-            p.flipped_faces_before_repair,
-            p.flipped_faces,
-            p.conformal_distortion.mean,
-            p.conformal_distortion.p99
-        );
-        assert!(p.singularities.is_empty(), "{what}");
-        assert_eq!(p.flipped_faces, 0, "{what}");
+    let helicoid = mapped_grid(100, 20, |u, v| {
+        let (r, t) = (1.0 + v, TAU * u);
+        DVec3::new(r * t.cos(), r * t.sin(), 0.5 * t)
+    });
+    let sheet = mapped_grid(400, 10, |u, v| {
+        DVec3::new(4.0 * u, 0.1 * v, 0.15 * (3.0 * PI * u).sin() * (1.0 + v))
+    });
+    for (what, mesh) in [("helicoid", helicoid), ("wavy sheet", sheet)] {
+        let p = aligned_patch_needs_no_singularity(mesh, Settings::default(), what);
         assert!(p.conformal_distortion.mean < 1.3, "{what}");
-        let (remesh, share, _) = remesh_along_curves(&base, &state, &solved, what);
-        remesh_checks::assert_manifold(&remesh, what);
-        assert_eq!(remesh.patched_places, 0, "{what}");
-        assert!(share > 0.99, "{what}: {share}");
     }
 }
 
 /// Right-angled corners of an aligned boundary with six-fold symmetry: a 90° corner lies
 /// halfway between the lattice corners of 60° and 120°, and the smoothing chose each corner on
 /// its own: a flat square got a ±1/6 pair beside a corner, a 10 × 1 rectangle four
-/// singularities (2026-12-05). Decided per patch (`constraint::acute_corners`), a rectangle
-/// takes two corners of 60° and two of 120° and needs no singularity.
+/// singularities (2026-12-05). Decided along the loop (`constraint::acute_corners`), a
+/// rectangle takes corners of 60° and 120° in turn and needs no singularity.
 #[test]
 fn right_angled_boundaries_with_six_fold_symmetry_need_no_singularity() {
     for (what, nx, ny, sx, sy) in [
-        ("square", 40, 40, 1.0, 1.0),
-        ("10 × 1 rectangle", 200, 20, 10.0, 1.0),
+        ("square, N = 6", 40, 40, 1.0, 1.0),
+        ("10 × 1 rectangle, N = 6", 200, 20, 10.0, 1.0),
     ] {
-        let mesh = std::sync::Arc::new(generate::grid(nx, ny, sx, sy));
         let settings = Settings {
             symmetry: 6,
             ..Settings::default()
         };
-        let base = Base::for_mesh(mesh, settings).unwrap();
-        let (state, solved) = replay_solve(&base, &[Edit::AlignBoundary { on: true }]);
-        let p = &solved.param;
-        check_geometric(&base, &state, &solved);
-        eprintln!(
-            "{what}, N = 6, aligned: {} singularities, {} folds, conformal distortion {:.3} (p99 {:.2})",
-            p.singularities.len(),
-            p.flipped_faces,
-            p.conformal_distortion.mean,
-            p.conformal_distortion.p99
-        );
-        assert!(p.singularities.is_empty(), "{what}");
-        assert_eq!(p.flipped_faces, 0, "{what}");
-        let (remesh, share, _) = remesh_along_curves(&base, &state, &solved, what);
-        remesh_checks::assert_manifold(&remesh, what);
-        assert_eq!(remesh.patched_places, 0, "{what}");
-        assert!(share > 0.99, "{what}: {share}");
+        let mesh = std::sync::Arc::new(generate::grid(nx, ny, sx, sy));
+        aligned_patch_needs_no_singularity(mesh, settings, what);
     }
 }

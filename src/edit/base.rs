@@ -502,13 +502,7 @@ impl Base {
         } else {
             let aligned = Arc::new(aligned);
             // The faces along boundary edges of geometric curves (`field::boundary_yield`).
-            let on_curve = crate::constraint::curve_edges(
-                &self.mesh,
-                state
-                    .curves
-                    .values()
-                    .filter(|c| c.kind == crate::constraint::CurveKind::Geometric),
-            );
+            let on_curve = self.geometric_curve_edges(&state);
             let along_boundary: Vec<u32> = on_curve
                 .iter()
                 .enumerate()
@@ -658,13 +652,7 @@ impl Base {
         if acute.wedges.is_empty() {
             return state;
         }
-        let curve_edge = crate::constraint::curve_edges(
-            &self.mesh,
-            state
-                .curves
-                .values()
-                .filter(|c| c.kind == crate::constraint::CurveKind::Geometric),
-        );
+        let curve_edge = self.geometric_curve_edges(&state);
         // How many curve edges meet at each vertex: 0 off the curves, 2 inside one.
         let mut curve_degree = vec![0u32; self.mesh.n_vertices()];
         for (e, _) in curve_edge.iter().enumerate().filter(|(_, on)| **on) {
@@ -767,6 +755,17 @@ impl Base {
     /// Per face along a geometric curve the direction the design holds it to: the curve edges'
     /// directions there combined modulo 2π/N (the mean of e^{iNα}); faces inside an acute
     /// corner take the corner's turning frame (`turning`, `AcuteCorners::alignments`) instead.
+    /// Per mesh edge whether a geometric curve runs along it (empty without curves).
+    fn geometric_curve_edges(&self, state: &EditState) -> Vec<bool> {
+        crate::constraint::curve_edges(
+            &self.mesh,
+            state
+                .curves
+                .values()
+                .filter(|c| c.kind == crate::constraint::CurveKind::Geometric),
+        )
+    }
+
     fn design_alignment(
         &self,
         state: &EditState,
