@@ -79,3 +79,87 @@ pub fn yield_to_boundary(
     }
     Ok(released)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::transport::FaceBases;
+    use super::super::{FieldParams, compute_field};
+    use crate::mesh::{TriMesh, generate};
+    use glam::DVec3;
+    use std::f64::consts::TAU;
+    use std::sync::Arc;
+
+    /// A one-turn helicoid strip (curvature lines at 45° to its sides) beside a torus far away:
+    /// aligning the strip's boundary releases curvature faces on the strip (none without
+    /// `boundary_aligned`), and none on the torus, which no boundary reaches (`relaxed_z` is 0
+    /// on a component without weight rather than the extension of an arbitrary anchor).
+    #[test]
+    fn only_faces_the_boundary_reaches_yield() {
+        let strip = generate::grid(60, 12, 1.0, 1.0);
+        let torus = generate::torus(6.0, 2.0, 48, 16);
+        let mut positions: Vec<DVec3> = strip
+            .positions()
+            .iter()
+            .map(|p| {
+                let (r, t) = (1.0 + p.y, TAU * p.x);
+                DVec3::new(r * t.cos(), r * t.sin(), 0.5 * t)
+            })
+            .collect();
+        let offset = positions.len() as u32;
+        positions.extend(
+            torus
+                .positions()
+                .iter()
+                .map(|p| *p + DVec3::new(100.0, 0.0, 0.0)),
+        );
+        let mut faces = strip.faces().to_vec();
+        faces.extend(torus.faces().iter().map(|f| f.map(|v| v + offset)));
+        let mesh = TriMesh::from_triangles(positions, faces).unwrap();
+        let strip_faces = strip.n_faces();
+        // The strip's boundary faces, held to their boundary edge.
+        let bases = FaceBases::new(&mesh);
+        let mut along = Vec::new();
+        let mut aligned = Vec::new();
+        for h in 0..mesh.n_halfedges() {
+            if mesh.twin(h).is_none() {
+                let f = mesh.face_of(h);
+                along.push(f as u32);
+                aligned.push((f as u32, bases.angle_of(f, mesh.vector(h))));
+            }
+        }
+        aligned.sort_by_key(|a| a.0);
+        aligned.dedup_by_key(|a| a.0);
+        along.sort_unstable();
+        along.dedup();
+        // Enough of the most reliable faces that both parts have some.
+        let base = FieldParams {
+            reliable_fraction: 0.4,
+            ..FieldParams::default()
+        };
+        let plain = compute_field(&mesh, &base).unwrap();
+        let curved = compute_field(
+            &mesh,
+            &FieldParams {
+                aligned: Some(Arc::new(aligned)),
+                boundary_aligned: Some(Arc::new(along.clone())),
+                ..base.clone()
+            },
+        )
+        .unwrap();
+        let released = |range: std::ops::Range<usize>| {
+            range
+                .filter(|&f| along.binary_search(&(f as u32)).is_err())
+                .filter(|&f| plain.omega[f] > 0.0 && curved.omega[f] == 0.0)
+                .count()
+        };
+        let on_strip = released(0..strip_faces);
+        let on_torus = released(strip_faces..mesh.n_faces());
+        eprintln!("released: {on_strip} on the strip, {on_torus} on the torus");
+        assert!(on_strip > 0, "nothing released on the strip");
+        assert_eq!(on_torus, 0, "released on the torus");
+        assert!(
+            (strip_faces..mesh.n_faces()).any(|f| plain.omega[f] > 0.0),
+            "the torus has curvature faces"
+        );
+    }
+}

@@ -742,9 +742,10 @@ fn smooth_releasing_by(inp: &SmoothInput, release: Release) -> Result<SmoothOutp
 }
 
 /// The relaxed (complex) minimiser z per face for the alignment weights `w` (τω, already
-/// scaled) towards `theta0`, with an anchor in every component that has no weight: the field the
-/// weighted faces alone would extend, and by |z| how firmly they determine it there (near 1
-/// beside them, decaying where their directions wind or cancel out).
+/// scaled) towards `theta0`: the field the weighted faces alone would extend, and by |z| how
+/// firmly they determine it there (near 1 beside them, decaying where their directions wind or
+/// cancel out). z = 0 on the components of the dual graph without any weight (solved with an
+/// anchor, whose direction says nothing).
 pub fn relaxed_z(
     n: u32,
     transport: &EdgeTransport,
@@ -768,13 +769,22 @@ pub fn relaxed_z(
         layout: Some(layout),
         keep_system: false,
     };
-    debug_assert_eq!(w.len(), nf);
     let (matrix, rhs) = relaxed_complex_system(&inp, w, &anchor, layout)?;
     let hierarchy = Multigrid::new(&matrix)?;
     drop(matrix);
-    Ok(hierarchy
+    let mut z = hierarchy
         .solve(&rhs, None, RELAXED_TOLERANCE, RELAXED_MAX_ITERATIONS)?
-        .x)
+        .x;
+    let mut anchored = vec![false; components.best.len()];
+    for f in (0..nf).filter(|&f| anchor[f]) {
+        anchored[components.label[f] as usize] = true;
+    }
+    for (f, zf) in z.iter_mut().enumerate() {
+        if anchored[components.label[f] as usize] {
+            *zf = c64::new(0.0, 0.0);
+        }
+    }
+    Ok(z)
 }
 
 /// The factored fixed-matching system of a smoothing (dual Laplacian + τω + anchors, before the
