@@ -752,9 +752,6 @@ impl Base {
         state
     }
 
-    /// Per face along a geometric curve the direction the design holds it to: the curve edges'
-    /// directions there combined modulo 2π/N (the mean of e^{iNα}); faces inside an acute
-    /// corner take the corner's turning frame (`turning`, `AcuteCorners::alignments`) instead.
     /// Per mesh edge whether a geometric curve runs along it (empty without curves).
     fn geometric_curve_edges(&self, state: &EditState) -> Vec<bool> {
         crate::constraint::curve_edges(
@@ -766,6 +763,9 @@ impl Base {
         )
     }
 
+    /// Per face along a geometric curve the direction the design holds it to: the curve edges'
+    /// directions there combined modulo 2π/N (the mean of e^{iNα}); faces inside an acute
+    /// corner take the corner's turning frame (`turning`, `AcuteCorners::alignments`) instead.
     fn design_alignment(
         &self,
         state: &EditState,
