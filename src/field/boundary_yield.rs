@@ -25,6 +25,7 @@
 //! Crease curves are left to compete as before: on fandisk with features the same test
 //! releases 11 faces and moves folds and patched places both ways (measured, not kept).
 
+use super::CURVE_WEIGHT;
 use super::smoothing::{self, DualLayout};
 use super::transport::EdgeTransport;
 use crate::sparse::{SolverError, c64};
@@ -36,8 +37,8 @@ pub const YIELD_ABOVE: f64 = 0.5;
 
 /// Releases (sets ω to 0) the curvature faces that contradict the aligned boundary, among the
 /// faces with `omega` > 0 that are not `on_curve`; the faces `along` a boundary curve (those of
-/// them `on_curve`) are held to `reference` with `weight`. Returns how many were released.
-#[allow(clippy::too_many_arguments)]
+/// them `on_curve`) are held to `reference` with the curves' weight [`CURVE_WEIGHT`]. Returns
+/// how many were released.
 pub fn yield_to_boundary(
     n: u32,
     transport: &EdgeTransport,
@@ -45,7 +46,6 @@ pub fn yield_to_boundary(
     omega: &mut [f64],
     on_curve: &[bool],
     along: &[u32],
-    weight: f64,
     layout: &DualLayout,
 ) -> Result<usize, SolverError> {
     let nf = omega.len();
@@ -53,7 +53,7 @@ pub fn yield_to_boundary(
     for &f in along {
         let f = f as usize;
         if f < nf && on_curve[f] {
-            w[f] = weight;
+            w[f] = CURVE_WEIGHT;
         }
     }
     let competing = (0..nf).any(|f| omega[f] > 0.0 && !on_curve[f]);

@@ -404,14 +404,7 @@ fn field_with_analysis<T: Send>(
         {
             let layout = early_layout.insert(layout()?);
             boundary_yield::yield_to_boundary(
-                n,
-                &tr,
-                &reference,
-                &mut omega,
-                &on_curve,
-                along,
-                CURVE_WEIGHT,
-                layout,
+                n, &tr, &reference, &mut omega, &on_curve, along, layout,
             )?;
         }
     }

@@ -344,10 +344,11 @@ const MISWOUND_TRIES_MAX_FACES: usize = 500_000;
 /// of them; many are a crowded cluster at a coarse density, what the finer grid is for,
 /// docs/untangling.md).
 fn crowded_done(p: &Parameterization, under_curves: bool) -> bool {
+    // (`uv` has one entry per corner: its length / 3 is the mesh's face count.)
     p.flipped_faces == 0
         && (p.miswound.is_empty()
             || (under_curves && p.miswound.len() <= crowded::FEW_MISWOUND)
-            || p.uv.len() >= 3 * MISWOUND_TRIES_MAX_FACES)
+            || p.uv.len() / 3 >= MISWOUND_TRIES_MAX_FACES)
 }
 
 /// Sets `stop` for the tries after the i-th when the i-th is done (the ladder would stop
