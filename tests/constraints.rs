@@ -1319,3 +1319,51 @@ fn right_angled_boundaries_with_six_fold_symmetry_need_no_singularity() {
         aligned_patch_needs_no_singularity(mesh, settings, what);
     }
 }
+
+/// A geometric chord across a flat plate, from boundary to boundary, for every symmetry:
+/// straight across and along the diagonal. With N = 6 the straight chord failed ("matrix is
+/// not positive definite", naming no curve; 2026-12-05): the plate has no singularity, so its
+/// translations are pinned where the lines leave them free, and the pinning compared the
+/// lines' normals in the frames of their vertices, which the edit model's incremental solve
+/// turns against each other (its gauge) — the chord's boundary end looked like a second line
+/// family and nothing was pinned.
+#[test]
+fn a_chord_across_a_plate_lies_on_one_line_for_every_symmetry() {
+    let mesh = std::sync::Arc::new(generate::grid(40, 40, 1.0, 1.0));
+    let at = |x: f64, y: f64| {
+        (0..mesh.n_vertices())
+            .min_by(|&a, &b| {
+                let d = |v: usize| (mesh.position(v) - glam::DVec3::new(x, y, 0.0)).length();
+                d(a).total_cmp(&d(b))
+            })
+            .unwrap()
+    };
+    for (what, from, to) in [
+        ("straight", at(0.5, 0.0), at(0.5, 1.0)),
+        ("diagonal", at(0.0, 0.0), at(1.0, 1.0)),
+    ] {
+        let path = shortest_edge_path(&mesh, from, to).unwrap();
+        for symmetry in [2, 4, 6] {
+            let what = format!("{what} chord, N = {symmetry}");
+            let settings = Settings {
+                symmetry,
+                ..Settings::default()
+            };
+            let base = Base::for_mesh(mesh.clone(), settings).unwrap();
+            let edits = [Edit::AddCurve {
+                id: 0,
+                vertices: path.clone(),
+                closed: false,
+                kind: CurveKind::Geometric,
+            }];
+            let r = base.replay(&edits, &quadcover::edit::never).unwrap();
+            let state = r.last().clone();
+            let solved = base
+                .solve(&state, &quadcover::edit::never)
+                .unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert_eq!(check_geometric(&base, &state, &solved), path.len() - 1);
+            assert!(solved.param.singularities.is_empty(), "{what}");
+            assert_eq!(solved.param.flipped_faces, 0, "{what}");
+        }
+    }
+}

@@ -59,11 +59,12 @@ fn layout(
     mesh: &TriMesh,
     cut: &CutGraph,
     global: &GlobalSystem,
+    rots: &Rots,
     fixes: &BTreeMap<usize, VertexFix>,
 ) -> (Vec<M2>, Vec<Option<f64>>) {
     let nv = mesh.n_vertices();
     let mut fixes = fixes.clone();
-    pin_translations(mesh, cut, global, &mut fixes);
+    pin_translations(mesh, cut, global, rots, &mut fixes);
     let mut q: Vec<M2> = vec![[1.0, 0.0, 0.0, 1.0]; nv];
     let mut fixed: Vec<Option<f64>> = vec![None; 2 * nv];
     for (&v, fix) in &fixes {
@@ -137,7 +138,7 @@ impl<'a> ConstrainedStep<'a> {
         fixes: &BTreeMap<usize, VertexFix>,
     ) -> Result<Self, ParamError> {
         let nv = mesh.n_vertices();
-        let (q, fixed) = layout(mesh, cut, global, fixes);
+        let (q, fixed) = layout(mesh, cut, global, rots, fixes);
         let mut b = SparseBuilder::<f64>::with_capacity(2 * nv, 2 * nv + 18 * mesh.n_faces());
         for (i, f) in fixed.iter().enumerate() {
             // Explicit zero keeps every diagonal in the pattern.
@@ -196,7 +197,7 @@ impl<'a> ConstrainedStep<'a> {
         fixes: &BTreeMap<usize, VertexFix>,
     ) -> Result<(Vec<[f64; 2]>, MapSpace), ParamError> {
         let (mesh, cut, global, rots) = (self.mesh, self.cut, self.global, self.rots);
-        let (q, fixed) = layout(mesh, cut, global, fixes);
+        let (q, fixed) = layout(mesh, cut, global, rots, fixes);
         if q != self.q
             || fixed
                 .iter()
@@ -278,15 +279,19 @@ fn pin_translations(
     mesh: &TriMesh,
     cut: &CutGraph,
     global: &GlobalSystem,
+    rots: &Rots,
     fixes: &mut BTreeMap<usize, VertexFix>,
 ) {
     let comp = |v: usize| cut.comp_of_face[mesh.face_of(mesh.vertex_halfedge(v))] as usize;
+    // On such a component every transition is a translation, so the corners of a vertex share
+    // one rotation: 0, or the turn of its frame to the gauge of the system this one updates.
+    // R^{rot} turns a vertex-frame normal into the common frame where normals compare.
+    let rot_of = |v: usize| global.corner_rot[mesh.vertex_halfedge(v)] as i64;
     for p in 0..mesh.n_vertices() {
         if cut.singular[p] || global.corner_var[mesh.vertex_halfedge(p)] != NONE {
             continue;
         }
-        // p is the pinned vertex of its component; all rotations there are 0, so the vertex
-        // frames agree and normals compare directly.
+        // p is the pinned vertex of its component.
         let c = comp(p);
         let mut first: Option<[f64; 2]> = None;
         let mut spans_two = false;
@@ -296,13 +301,16 @@ fn pin_translations(
             }
             match *fix {
                 VertexFix::Both { .. } => spans_two = true,
-                VertexFix::One { m, .. } => match first {
-                    None => first = Some(m),
-                    Some(m0) if (m0[0] * m[0] + m0[1] * m[1]).abs() < 1.0 - 1e-6 => {
-                        spans_two = true
+                VertexFix::One { m, .. } => {
+                    let m = apply(rots.get(rot_of(v)), m);
+                    match first {
+                        None => first = Some(m),
+                        Some(m0) if (m0[0] * m[0] + m0[1] * m[1]).abs() < 1.0 - 1e-6 => {
+                            spans_two = true
+                        }
+                        _ => {}
                     }
-                    _ => {}
-                },
+                }
             }
         }
         if spans_two {
@@ -310,21 +318,17 @@ fn pin_translations(
         }
         let pin = match (first, fixes.get(&p).copied()) {
             (None, _) => VertexFix::Both { x: [0.0, 0.0] },
-            (Some(m0), Some(VertexFix::One { value, .. })) => {
-                // x = value m0 (+ 0 along the line); m0 is the pinned vertex's own normal up to
-                // sign, which `value` already carries.
-                let m = match fixes.get(&p) {
-                    Some(VertexFix::One { m, .. }) => *m,
-                    _ => m0,
-                };
-                VertexFix::Both {
-                    x: [value * m[0], value * m[1]],
+            // x = value m (+ 0 along the line), in p's own frame.
+            (Some(_), Some(VertexFix::One { m, value })) => VertexFix::Both {
+                x: [value * m[0], value * m[1]],
+            },
+            (Some(m0), _) => {
+                let m = apply(rots.get(-rot_of(p)), m0);
+                VertexFix::One {
+                    m: [-m[1], m[0]],
+                    value: 0.0,
                 }
             }
-            (Some(m0), _) => VertexFix::One {
-                m: [-m0[1], m0[0]],
-                value: 0.0,
-            },
         };
         fixes.insert(p, pin);
     }

@@ -800,6 +800,24 @@ impl Traced {
             .any(|ls| ls.iter().any(|l| l.geometric))
     }
 
+    /// A solver failure of the global step under the geometric curves, as an error naming them
+    /// (the editor draws them red and keeps the last good result; the CLI names them). Other
+    /// errors pass through.
+    pub fn name_failure(&self, e: ParamError) -> ParamError {
+        let ParamError::Solver(e) = e else { return e };
+        let involved: Vec<usize> = (0..self.geometric.len())
+            .filter(|&c| self.geometric[c])
+            .collect();
+        contradiction(
+            &self.ids,
+            &involved,
+            format!(
+                "the global step under geometric {} failed ({e})",
+                names(&self.ids, &involved)
+            ),
+        )
+    }
+
     /// How each curve sits in the final map `uv` (per corner).
     pub fn fits(&self, rots: &Rots, uv: &[[f64; 2]], w: &[f64]) -> Vec<CurveFit> {
         let ng = self.n_gaps;

@@ -1245,8 +1245,10 @@ impl QuadCover {
             },
         );
         let mut w = rounded?;
-        let step = step?;
-        let (mut uv, space) = self.curve_map(mesh, &local, &traced, step.as_ref(), &w)?;
+        let step = step.map_err(|e| traced.name_failure(e))?;
+        let (mut uv, space) = self
+            .curve_map(mesh, &local, &traced, step.as_ref(), &w)
+            .map_err(|e| traced.name_failure(e))?;
         let global_ms = ms(t);
         // The repair holds the curves' fixed components: the fits below still hold exactly.
         if !self.opts.no_untangle && !untangle::folded(&uv).is_empty() {
