@@ -40,9 +40,199 @@ pub(crate) fn reduced_kernel(
     rows: &[Vec<(usize, i128)>],
     n: usize,
 ) -> Result<Vec<Vec<i128>>, String> {
+    if rows.len() * n * n > DENSE_MAX_WORK
+        && let Ok(mut basis) = kernel_by_substitution(rows, n)
+    {
+        lll_reduce(&mut basis)?;
+        return Ok(basis);
+    }
     // In the rows' order first (what every measured solve used); if that overflows, robustly.
     let mut basis = kernel_basis(rows, n, false).or_else(|_| kernel_basis(rows, n, true))?;
     lll_reduce(&mut basis)?;
+    Ok(basis)
+}
+
+/// Rows × variables² past which [`reduced_kernel`] substitutes first ([`kernel_by_substitution`])
+/// instead of reducing the dense n × n transform: spot with features at 12° (1493 rows over
+/// 1684 variables) took 0.8 s that way, at 10° minutes.
+const DENSE_MAX_WORK: usize = 50_000_000;
+
+/// A basis of the integer kernel of `rows` found by substitution first: a row with a
+/// coefficient ±1 gives that variable as an integer combination of the row's others, exactly,
+/// so it is eliminated from the other rows (sparse; the pivot whose row and column are
+/// shortest first). Nearly every curve equation has one (a line value c_κ, or a gap, with
+/// coefficient ±1 once the row is divided by its gcd). The rows left without one go to
+/// [`kernel_basis`] over their own few variables; variables in no row left are free. Each
+/// basis vector over the variables kept is completed by the substitutions in reverse order.
+/// The integer solutions are exactly those completions (every substitution is integral), so the
+/// lattice is the same as [`kernel_basis`]'s, in another basis.
+fn kernel_by_substitution(rows: &[Vec<(usize, i128)>], n: usize) -> Result<Vec<Vec<i128>>, String> {
+    use std::collections::{BTreeMap, BTreeSet};
+    let overflow = || "integer overflow in the constraint substitution".to_string();
+    let normalized = |row: BTreeMap<usize, i128>| -> BTreeMap<usize, i128> {
+        let g = row.values().fold(0i128, |g, &a| ext_gcd(g, a).0);
+        if g > 1 {
+            row.into_iter().map(|(j, a)| (j, a / g)).collect()
+        } else {
+            row
+        }
+    };
+    let mut live: Vec<Option<BTreeMap<usize, i128>>> = rows
+        .iter()
+        .map(|row| {
+            let mut m = BTreeMap::new();
+            for &(j, a) in row {
+                *m.entry(j).or_insert(0) += a;
+            }
+            m.retain(|_, a| *a != 0);
+            (!m.is_empty()).then(|| normalized(m))
+        })
+        .collect();
+    let mut col: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); n];
+    for (i, row) in live.iter().enumerate() {
+        for &j in row.iter().flat_map(|r| r.keys()) {
+            col[j].insert(i);
+        }
+    }
+    // w_var = Σ c_l w_l, in the order eliminated.
+    let mut substitutions: Vec<(usize, Vec<(usize, i128)>)> = Vec::new();
+    let mut eliminated = vec![false; n];
+    // The substituted entries grow by (largest other coefficient of the row) × (largest
+    // coefficient of the variable elsewhere): the least growth first, then Markowitz's fill-in
+    // (row length − 1) × (column length − 1). Candidates wait in order of the cost they had
+    // when queued, checked again when they come up (a scan of every row per step took seconds
+    // on 4000 rows).
+    type Rows = [Option<BTreeMap<usize, i128>>];
+    let cost =
+        |live: &Rows, col: &[BTreeSet<usize>], i: usize, j: usize| -> Option<(u128, usize)> {
+            let row = live[i].as_ref()?;
+            if row.get(&j)?.abs() != 1 {
+                return None;
+            }
+            let row_max = row
+                .iter()
+                .filter(|&(&l, _)| l != j)
+                .map(|(_, a)| a.unsigned_abs())
+                .max()
+                .unwrap_or(0);
+            let col_max = col[j]
+                .iter()
+                .filter(|&&r| r != i)
+                .map(|&r| live[r].as_ref().map_or(0, |row| row[&j].unsigned_abs()))
+                .max()
+                .unwrap_or(0);
+            Some((row_max * col_max, (row.len() - 1) * (col[j].len() - 1)))
+        };
+    let mut queue: BTreeSet<(u128, usize, usize, usize)> = BTreeSet::new();
+    let enqueue = |queue: &mut BTreeSet<_>, live: &Rows, col: &[BTreeSet<usize>], i: usize| {
+        for &j in live[i].iter().flat_map(|r| r.keys()) {
+            if let Some((g, m)) = cost(live, col, i, j) {
+                queue.insert((g, m, i, j));
+            }
+        }
+    };
+    for i in 0..live.len() {
+        enqueue(&mut queue, &live, &col, i);
+    }
+    while let Some(first) = queue.pop_first() {
+        let (g, m, i, j) = first;
+        match cost(&live, &col, i, j) {
+            None => continue,
+            Some(now) if now != (g, m) => {
+                queue.insert((now.0, now.1, i, j));
+                continue;
+            }
+            Some(_) => {}
+        }
+        let row = live[i].take().expect("a live row");
+        for &l in row.keys() {
+            col[l].remove(&i);
+        }
+        let aj = row[&j];
+        let others: Vec<(usize, i128)> = row
+            .iter()
+            .filter(|&(&l, _)| l != j)
+            .map(|(&l, &a)| (l, a))
+            .collect();
+        for r in std::mem::take(&mut col[j]) {
+            let mut target = live[r].take().expect("a live row");
+            let f = target[&j] * aj;
+            for (&l, &a) in &row {
+                let e = target.entry(l).or_insert(0);
+                *e = f
+                    .checked_mul(a)
+                    .and_then(|d| e.checked_sub(d))
+                    .ok_or_else(overflow)?;
+                if *e == 0 {
+                    target.remove(&l);
+                    col[l].remove(&r);
+                } else {
+                    col[l].insert(r);
+                }
+            }
+            if !target.is_empty() {
+                live[r] = Some(normalized(target));
+                enqueue(&mut queue, &live, &col, r);
+            }
+        }
+        substitutions.push((j, others.iter().map(|&(l, a)| (l, -aj * a)).collect()));
+        eliminated[j] = true;
+    }
+    // The rows left, over their own variables, and the free variables.
+    let left: Vec<&BTreeMap<usize, i128>> = live.iter().flatten().collect();
+    let in_left: Vec<usize> = (0..n).filter(|&j| !col[j].is_empty()).collect();
+    let local: BTreeMap<usize, usize> = in_left.iter().enumerate().map(|(i, &j)| (j, i)).collect();
+    let left_rows: Vec<Vec<(usize, i128)>> = left
+        .iter()
+        .map(|r| r.iter().map(|(j, &a)| (local[j], a)).collect())
+        .collect();
+    let mut kept: Vec<Vec<(usize, i128)>> = (0..n)
+        .filter(|&j| !eliminated[j] && col[j].is_empty())
+        .map(|j| vec![(j, 1)])
+        .collect();
+    if !in_left.is_empty() {
+        let m = in_left.len();
+        let mut sub =
+            kernel_basis(&left_rows, m, false).or_else(|_| kernel_basis(&left_rows, m, true))?;
+        // Short before it is completed (the Hermite basis alone reached 10⁸ on 30 rows).
+        lll_reduce(&mut sub)?;
+        kept.extend(sub.into_iter().map(|v| {
+            v.iter()
+                .enumerate()
+                .filter(|&(_, &x)| x != 0)
+                .map(|(i, &x)| (in_left[i], x))
+                .collect()
+        }));
+    }
+    let basis: Vec<Vec<i128>> = kept
+        .into_iter()
+        .map(|v| {
+            let mut w = vec![0i128; n];
+            for (j, x) in v {
+                w[j] = x;
+            }
+            for (j, expr) in substitutions.iter().rev() {
+                let mut x = 0i128;
+                for &(l, c) in expr {
+                    x = c
+                        .checked_mul(w[l])
+                        .and_then(|d| x.checked_add(d))
+                        .ok_or_else(overflow)?;
+                }
+                w[*j] = x;
+            }
+            Ok(w)
+        })
+        .collect::<Result<_, String>>()?;
+    // Chains of substitutions through coefficients ±2 multiply: past this the reduction's f64
+    // Gram–Schmidt would not be exact (the curves' systems measured: entries up to 5019).
+    if basis
+        .iter()
+        .flatten()
+        .any(|x| x.unsigned_abs() > REDUCE_ABOVE)
+    {
+        return Err("the substitution grew the basis".to_string());
+    }
     Ok(basis)
 }
 
@@ -73,8 +263,22 @@ pub(crate) fn nearest_in_lattice(
             &identity
         }
     };
-    let apply_m =
-        |x: &[f64]| -> Vec<f64> { (0..n).map(|r| dot(&m[r * n..(r + 1) * n], x)).collect() };
+    // The metric is mostly diagonal (the gaps' energy block and the line values'
+    // weights): applied by its nonzero entries (n = 4000 and more with features at 5°).
+    let sparse: Vec<Vec<(usize, f64)>> = (0..n)
+        .map(|r| {
+            (0..n)
+                .map(|c| (c, m[r * n + c]))
+                .filter(|&(_, v)| v != 0.0)
+                .collect()
+        })
+        .collect();
+    let apply_m = |x: &[f64]| -> Vec<f64> {
+        sparse
+            .iter()
+            .map(|row| row.iter().map(|&(c, v)| v * x[c]).sum())
+            .collect()
+    };
     // Least squares in the metric: (BᵀMB) z = BᵀM w*.
     let mb: Vec<Vec<f64>> = b.iter().map(|col| apply_m(col)).collect();
     let mut gram = vec![0.0; k * k];
@@ -253,9 +457,143 @@ fn reduce_if_large(rest: &mut [Vec<i128>], u: &mut [Vec<i128>], p: usize) -> Res
 }
 
 /// LLL reduction (δ = 3/4, Euclidean) of the lattice basis `basis` in place: the same lattice,
-/// short and nearly orthogonal vectors. Exact integer updates; the Gram–Schmidt vectors in f64,
-/// a row recomputed from the exact vector whenever that vector changes.
+/// short and nearly orthogonal vectors. Exact integer updates of the vectors and, where their
+/// entries are small enough for it, of their Gram matrix ([`lll_by_gram`]); otherwise on the
+/// vectors ([`lll_by_vectors`]).
 fn lll_reduce(basis: &mut [Vec<i128>]) -> Result<(), String> {
+    let largest = basis.iter().flatten().map(|x| x.unsigned_abs()).max();
+    if largest.is_some_and(|x| x <= GRAM_MAX_ENTRY) {
+        let mut by_gram = basis.to_vec();
+        if lll_by_gram(&mut by_gram).is_ok() {
+            basis.clone_from_slice(&by_gram);
+            return Ok(());
+        }
+    }
+    lll_by_vectors(basis)
+}
+
+/// Entries up to which [`lll_reduce`] works on the Gram matrix: its entries then stay exact in
+/// f64 (2⁴⁰ per product, over up to 4096 unknowns) while the vectors do not grow much. Larger
+/// ones (the Hermite basis, up to 10²⁰) misled the f64 coefficients computed from the Gram
+/// matrix into a long reduction to a poor basis.
+const GRAM_MAX_ENTRY: u128 = 1 << 20;
+
+/// LLL on the Gram matrix, exact in i128; the Gram–Schmidt coefficients in f64 from it (Cohen,
+/// *A Course in Computational Algebraic Number Theory*, alg. 2.6.3), a row recomputed whenever
+/// its vector changes. A row costs O(k²) instead of O(k n) on the vectors: spot with features
+/// at 10° has 207 vectors over 2060 unknowns (its reduction 5.5 s on the vectors).
+fn lll_by_gram(basis: &mut [Vec<i128>]) -> Result<(), String> {
+    const DELTA: f64 = 0.75;
+    let k = basis.len();
+    if k < 2 {
+        return Ok(());
+    }
+    let overflow = || "integer overflow in the lattice reduction".to_string();
+    let mut gram = vec![vec![0i128; k]; k];
+    {
+        let support: Vec<Vec<usize>> = basis
+            .iter()
+            .map(|v| (0..v.len()).filter(|&l| v[l] != 0).collect())
+            .collect();
+        for a in 0..k {
+            for b in 0..=a {
+                let mut d = 0i128;
+                for &l in &support[a] {
+                    d = basis[a][l]
+                        .checked_mul(basis[b][l])
+                        .and_then(|x| d.checked_add(x))
+                        .ok_or_else(overflow)?;
+                }
+                gram[a][b] = d;
+                gram[b][a] = d;
+            }
+        }
+    }
+    // r[i][j] = b_i · b*_j, mu[i][j] = r[i][j] / |b*_j|², bs[j] = |b*_j|².
+    let mut r = vec![vec![0.0; k]; k];
+    let mut mu = vec![vec![0.0; k]; k];
+    let mut bs = vec![0.0; k];
+    let row =
+        |i: usize, gram: &[Vec<i128>], r: &mut [Vec<f64>], mu: &mut [Vec<f64>], bs: &mut [f64]| {
+            let mut norm = gram[i][i] as f64;
+            for j in 0..i {
+                let mut x = gram[i][j] as f64;
+                for l in 0..j {
+                    x -= mu[j][l] * r[i][l];
+                }
+                r[i][j] = x;
+                mu[i][j] = if bs[j] > 0.0 { x / bs[j] } else { 0.0 };
+                norm -= mu[i][j] * x;
+            }
+            bs[i] = norm;
+        };
+    row(0, &gram, &mut r, &mut mu, &mut bs);
+    let mut i = 1;
+    // LLL ends after polynomially many swaps; the cap only guards against float trouble.
+    for _ in 0..1_000_000 {
+        if i >= k {
+            break;
+        }
+        row(i, &gram, &mut r, &mut mu, &mut bs);
+        // size reduction of b_i against b_{i-1}, …, b_0 (b*_i does not change)
+        for j in (0..i).rev() {
+            let q = mu[i][j].round();
+            if q == 0.0 {
+                continue;
+            }
+            let qi = q as i128;
+            let (lo, hi) = basis.split_at_mut(i);
+            for (x, &y) in hi[0].iter_mut().zip(&lo[j]) {
+                *x = qi
+                    .checked_mul(y)
+                    .and_then(|d| x.checked_sub(d))
+                    .ok_or_else(overflow)?;
+            }
+            // |b_i − q b_j|² = G_ii − 2q G_ij + q² G_jj; (b_i − q b_j)·b_l = G_il − q G_jl.
+            let ii = qi
+                .checked_mul(gram[i][j])
+                .and_then(|x| x.checked_mul(2))
+                .and_then(|x| gram[i][i].checked_sub(x))
+                .and_then(|x| {
+                    qi.checked_mul(qi)
+                        .and_then(|qq| qq.checked_mul(gram[j][j]))
+                        .and_then(|y| x.checked_add(y))
+                })
+                .ok_or_else(overflow)?;
+            for l in 0..k {
+                if l != i {
+                    let x = qi
+                        .checked_mul(gram[j][l])
+                        .and_then(|d| gram[i][l].checked_sub(d))
+                        .ok_or_else(overflow)?;
+                    gram[i][l] = x;
+                    gram[l][i] = x;
+                }
+            }
+            gram[i][i] = ii;
+            mu[i][j] -= q;
+            for l in 0..j {
+                mu[i][l] -= q * mu[j][l];
+            }
+        }
+        if bs[i] >= (DELTA - mu[i][i - 1] * mu[i][i - 1]) * bs[i - 1] {
+            i += 1;
+        } else {
+            basis.swap(i, i - 1);
+            gram.swap(i, i - 1);
+            for g in gram.iter_mut() {
+                g.swap(i, i - 1);
+            }
+            row(i - 1, &gram, &mut r, &mut mu, &mut bs);
+            i = (i - 1).max(1);
+        }
+    }
+    Ok(())
+}
+
+/// [`lll_by_gram`] for vectors whose Gram matrix would overflow: the Gram–Schmidt vectors in
+/// f64, a row recomputed from the exact vector (O(k n)).
+fn lll_by_vectors(basis: &mut [Vec<i128>]) -> Result<(), String> {
     const DELTA: f64 = 0.75;
     let k = basis.len();
     if k < 2 {
@@ -474,6 +812,90 @@ mod tests {
         let dist = |w: &[f64]| -> f64 { w.iter().zip(&target).map(|(a, b)| (a - b).powi(2)).sum() };
         let got = dist(&w.iter().map(|&x| x as f64).collect::<Vec<_>>());
         assert!(got <= dist(&vec![0.0; n]), "{got}");
+    }
+
+    /// Substitution first gives the same lattice as the dense Hermite reduction, the integer
+    /// solutions of the rows: every vector solves them, the ranks agree, and neither basis spans
+    /// a proper sublattice.
+    #[test]
+    fn substitution_spans_the_same_lattice() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = |k: u64| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed % k
+        };
+        for (n, m) in [(12, 6), (40, 30), (80, 75)] {
+            // Curve-like rows, scaled by 12 as the traced ones are: two line values c (the
+            // last n / 2 variables) meeting, and gaps (the first n / 2) with coefficients
+            // 0, ±1, ±2; every fifth row without a unit coefficient even once divided by its
+            // gcd (2, 4, −6).
+            let h = n as u64 / 2;
+            let rows: Vec<Vec<(usize, i128)>> = (0..m)
+                .map(|i| {
+                    if i % 5 == 4 {
+                        return [2, 4, -6]
+                            .iter()
+                            .map(|&a| (next(n as u64) as usize, a))
+                            .collect();
+                    }
+                    let mut row = vec![((h + next(h)) as usize, 12), ((h + next(h)) as usize, -12)];
+                    for _ in 0..2 {
+                        row.push((next(h) as usize, [0, 12, -12, 24, -24][next(5) as usize]));
+                    }
+                    row
+                })
+                .collect();
+            // Reduced, so that the check's arithmetic stays small.
+            let mut dense = kernel_basis(&rows, n, false)
+                .or_else(|_| kernel_basis(&rows, n, true))
+                .unwrap();
+            let mut sub = kernel_by_substitution(&rows, n).unwrap_or_else(|e| panic!("n {n}: {e}"));
+            lll_reduce(&mut dense).unwrap();
+            lll_reduce(&mut sub).unwrap();
+            assert_eq!(dense.len(), sub.len(), "n {n}: the kernel's rank");
+            for v in dense.iter().chain(&sub) {
+                for row in &rows {
+                    assert_eq!(row.iter().map(|&(j, a)| a * v[j]).sum::<i128>(), 0);
+                }
+            }
+            // Both are kernel vectors of full rank; they span all integer solutions iff their
+            // index in their saturation is 1.
+            assert_eq!(index_in_saturation(&dense, n), 1, "n {n}: dense");
+            assert_eq!(index_in_saturation(&sub, n), 1, "n {n}: substituted");
+        }
+        // A sublattice of index 2 is told apart: one vector doubled.
+        let mut twice = vec![vec![1i128, 1, 0], vec![0, 0, 1]];
+        assert_eq!(index_in_saturation(&twice, 3), 1);
+        twice[1][2] = 2;
+        assert_eq!(index_in_saturation(&twice, 3), 2);
+    }
+
+    /// [sat(L) : L] for the lattice L spanned by `basis` (independent vectors over `n`
+    /// variables): column operations by extended gcd bring the vectors (as rows) to [H | 0]
+    /// with H triangular; the index is |det H|.
+    fn index_in_saturation(basis: &[Vec<i128>], n: usize) -> i128 {
+        let mut a: Vec<Vec<i128>> = basis.to_vec();
+        let mut det = 1i128;
+        for (i, p) in (0..a.len()).zip(0..n) {
+            for j in p + 1..n {
+                if a[i][j] == 0 {
+                    continue;
+                }
+                let (x, y) = (a[i][p], a[i][j]);
+                let (g, s, t) = ext_gcd(x, y);
+                let (xg, yg) = (x / g, y / g);
+                for row in a.iter_mut() {
+                    let (cp, cj) = (row[p], row[j]);
+                    row[p] = s * cp + t * cj;
+                    row[j] = xg * cj - yg * cp;
+                }
+            }
+            assert_ne!(a[i][p], 0, "dependent vectors");
+            det *= a[i][p].abs();
+        }
+        det
     }
 
     #[test]
