@@ -1402,6 +1402,33 @@ fn curves_are_drawn_retyped_deleted_undone_and_saved() {
     h2.get_by_label("3 curves: 3 drawn, 0 sharp features, 0 boundary");
 }
 
+/// The feature preview warns when the angle picks the tessellation's facets rather than creases
+/// (`constraint::detect::noise_warning`): spot at 20° (226 curves under two grid cells), not at
+/// 40°.
+#[test]
+fn the_feature_preview_warns_below_the_facets_angle() {
+    // Solved: the warning measures in grid cells, which the edit base knows.
+    let (_dir, mut h) = editor_on("spot.obj", true);
+    let warning = "feature curves are shorter than";
+    h.state_mut().curves.feature_angle = 20.0;
+    h.state_mut().curves.feature_preview = true;
+    h.run_steps(2);
+    assert!(
+        h.query_by_label_contains(warning).is_some(),
+        "no warning at 20°"
+    );
+    h.state_mut().curves.feature_angle = 40.0;
+    h.run_steps(2);
+    assert!(
+        h.query_by_label_contains(warning).is_none(),
+        "a warning at 40°"
+    );
+    assert!(
+        h.state().document.edits.is_empty(),
+        "the preview is no edit"
+    );
+}
+
 /// The feature angle previews the sharp edges before anything is applied; *Detect features*
 /// turns them into feature curves (undo removes them); *Align to boundary* adds the boundary
 /// loops as curves and removes them again.

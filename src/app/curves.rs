@@ -214,6 +214,8 @@ pub struct CurvesUi {
     /// (document generation, feature angle, minimum set length) of the preview shown.
     preview_key: Option<(u64, f64, f64)>,
     preview_edges: usize,
+    /// [`crate::constraint::detect::noise_warning`] of the curves the preview's edges make.
+    preview_warning: Option<String>,
     preview_overlay: Option<Arc<Overlay>>,
 }
 
@@ -226,6 +228,7 @@ impl Default for CurvesUi {
             curves_overlay: None,
             preview_key: None,
             preview_edges: 0,
+            preview_warning: None,
             preview_overlay: None,
         }
     }
@@ -266,9 +269,12 @@ impl EditorApp {
         };
         // What `detect_features` will keep: short sets of feature edges are dropped at the
         // grid's scale.
-        let min_length = self.document.edit_base.as_ref().map_or(0.0, |b| {
-            crate::constraint::detect::MIN_FEATURE_CELLS * b.grid_size()
-        });
+        let scale = self
+            .document
+            .edit_base
+            .as_ref()
+            .map_or(0.0, |b| b.grid_size());
+        let min_length = crate::constraint::detect::MIN_FEATURE_CELLS * scale;
         let ui = &mut self.curves;
         let key = (self.document.generation(), ui.feature_angle, min_length);
         if ui.preview_key != Some(key) {
@@ -278,6 +284,17 @@ impl EditorApp {
                 min_length,
             );
             ui.preview_edges = edges.len();
+            ui.preview_warning = (scale > 0.0)
+                .then(|| {
+                    let curves =
+                        crate::constraint::detect::detect_features(mesh, ui.feature_angle, scale);
+                    crate::constraint::detect::noise_warning(
+                        mesh,
+                        curves.iter().map(|c| c.vertices.as_slice()),
+                        scale,
+                    )
+                })
+                .flatten();
             ui.preview_overlay = Some(Arc::new(feature_overlay(mesh, &edges)));
             ui.preview_key = Some(key);
         }
@@ -375,6 +392,11 @@ impl EditorApp {
                 ui.label(format!("{} edges", self.curves.preview_edges));
             }
         });
+        if self.curves.feature_preview
+            && let Some(w) = &self.curves.preview_warning
+        {
+            ui.colored_label(ui.visuals().warn_fg_color, w);
+        }
         let angle = self.curves.feature_angle;
         if ui
             .add_enabled(editable, egui::Button::new("Detect features"))

@@ -555,6 +555,17 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 })
                 .collect();
             bar.done("edits", t);
+            let features = replay
+                .last()
+                .curves
+                .values()
+                .filter(|c| c.origin == crate::constraint::CurveOrigin::Feature)
+                .map(|c| c.vertices.as_slice());
+            if let Some(w) =
+                crate::constraint::detect::noise_warning(&mesh, features, base.grid_size())
+            {
+                bar.line(format!("  warning: {w}"));
+            }
             let s = base.solve(replay.last(), &edit::never)?;
             curve_edges = crate::constraint::curve_edges(&mesh, replay.last().curves.values());
             let field = s.field.clone();
