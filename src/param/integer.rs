@@ -150,11 +150,6 @@ fn kernel_by_substitution(rows: &[Vec<(usize, i128)>], n: usize) -> Result<Vec<V
             col[l].remove(&i);
         }
         let aj = row[&j];
-        let others: Vec<(usize, i128)> = row
-            .iter()
-            .filter(|&(&l, _)| l != j)
-            .map(|(&l, &a)| (l, a))
-            .collect();
         for r in std::mem::take(&mut col[j]) {
             let mut target = live[r].take().expect("a live row");
             let f = target[&j] * aj;
@@ -176,15 +171,17 @@ fn kernel_by_substitution(rows: &[Vec<(usize, i128)>], n: usize) -> Result<Vec<V
                 enqueue(&mut queue, &live, &col, r);
             }
         }
-        substitutions.push((j, others.iter().map(|&(l, a)| (l, -aj * a)).collect()));
+        // a_j w_j + Σ a_l w_l = 0 with a_j = ±1: w_j = −a_j Σ a_l w_l.
+        let expr = row.iter().filter(|&(&l, _)| l != j);
+        substitutions.push((j, expr.map(|(&l, &a)| (l, -aj * a)).collect()));
         eliminated[j] = true;
     }
     // The rows left, over their own variables, and the free variables.
-    let left: Vec<&BTreeMap<usize, i128>> = live.iter().flatten().collect();
     let in_left: Vec<usize> = (0..n).filter(|&j| !col[j].is_empty()).collect();
     let local: BTreeMap<usize, usize> = in_left.iter().enumerate().map(|(i, &j)| (j, i)).collect();
-    let left_rows: Vec<Vec<(usize, i128)>> = left
+    let left_rows: Vec<Vec<(usize, i128)>> = live
         .iter()
+        .flatten()
         .map(|r| r.iter().map(|(j, &a)| (local[j], a)).collect())
         .collect();
     let mut kept: Vec<Vec<(usize, i128)>> = (0..n)
@@ -254,26 +251,19 @@ pub(crate) fn nearest_in_lattice(
         .iter()
         .map(|col| col.iter().map(|&x| x as f64).collect())
         .collect();
-    let identity: Vec<f64>;
-    let m = match metric {
-        Some(m) => m,
-        None => {
-            identity = (0..n * n)
-                .map(|i| (i % (n + 1) == 0) as u8 as f64)
-                .collect();
-            &identity
-        }
-    };
     // The metric is mostly diagonal (the gaps' energy block and the line values'
     // weights): applied by its nonzero entries (n = 4000 and more with features at 5°).
-    let sparse: Vec<Vec<(usize, f64)>> = (0..n)
-        .map(|r| {
-            (0..n)
-                .map(|c| (c, m[r * n + c]))
-                .filter(|&(_, v)| v != 0.0)
-                .collect()
-        })
-        .collect();
+    let sparse: Vec<Vec<(usize, f64)>> = match metric {
+        Some(m) => (0..n)
+            .map(|r| {
+                (0..n)
+                    .map(|c| (c, m[r * n + c]))
+                    .filter(|&(_, v)| v != 0.0)
+                    .collect()
+            })
+            .collect(),
+        None => (0..n).map(|r| vec![(r, 1.0)]).collect(),
+    };
     let apply_m = |x: &[f64]| -> Vec<f64> {
         sparse
             .iter()
@@ -784,6 +774,16 @@ mod tests {
         assert_eq!(w, (0..n as i64).collect::<Vec<_>>());
     }
 
+    /// A reproducible stream of numbers below `k` (xorshift64).
+    fn xorshift(mut seed: u64) -> impl FnMut(u64) -> u64 {
+        move |k| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed % k
+        }
+    }
+
     /// Many sparse rows with coefficients like the curves' (±1, ±2: a line through a
     /// singularity of index 1/4): the column Hermite reduction alone grows its entries
     /// geometrically and overflowed i128 (as a gear with 216 feature curves did); reducing the
@@ -792,13 +792,7 @@ mod tests {
     #[test]
     fn many_rows_eliminate_without_overflow() {
         let (n, m) = (300, 260);
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = |k: u64| {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed % k
-        };
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15u64);
         let rows: Vec<Vec<(usize, i128)>> = (0..m)
             .map(|_| {
                 let mut row: Vec<(usize, i128)> = Vec::new();
@@ -825,13 +819,7 @@ mod tests {
     /// of either is an integer combination of the other's.
     #[test]
     fn substitution_spans_the_same_lattice() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = |k: u64| {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed % k
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1du64);
         for (n, m) in [(12, 6), (40, 30), (80, 75)] {
             // Curve-like rows, scaled by 12 as the traced ones are: two line values c (the
             // last n / 2 variables) meeting, and gaps (the first n / 2) with coefficients
