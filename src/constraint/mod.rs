@@ -14,7 +14,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::mesh::TriMesh;
 
-pub use align::{AcuteCorners, CurveAlignment, acute_corners, alignment, faces_reached};
+pub use align::{
+    AcuteCorners, CurveAlignment, acute_corners, alignment, faces_reached, stripe_across,
+    stripe_corners,
+};
 pub use detect::{DetectedCurve, boundary_curves, detect_features, feature_edges};
 pub use path::{edge_key, path_edges, shortest_edge_path, shortest_edge_path_avoiding};
 

@@ -1,7 +1,7 @@
 //! [`Base`]: what depends on the mesh and the settings only, and the pure functions from edit
 //! lists to states and from states to fields and parameterizations.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -483,13 +483,23 @@ impl Base {
     /// designed again with it (matchings and singularities anew, as for a fresh solve) and the
     /// singularity edits since the last design are re-applied where they still apply.
     fn redesign(&self, mut state: EditState, cancel: Cancel) -> Result<EditState, EditError> {
-        let acute = crate::constraint::acute_corners(
-            &self.mesh,
-            state.curves.values(),
-            self.settings.symmetry,
-            self.grid_size() * CORNER_REACH,
-        );
-        let aligned = self.design_alignment(&state, &acute.alignments);
+        let across = self.stripe_across(&state);
+        let acute = if self.settings.symmetry == 2 {
+            crate::constraint::stripe_corners(
+                &self.mesh,
+                state.curves.values(),
+                &across,
+                self.grid_size() * CORNER_REACH,
+            )
+        } else {
+            crate::constraint::acute_corners(
+                &self.mesh,
+                state.curves.values(),
+                self.settings.symmetry,
+                self.grid_size() * CORNER_REACH,
+            )
+        };
+        let aligned = self.design_alignment(&state, &acute.alignments, &across);
         let current: &[(u32, f64)] = state.design.as_ref().map_or(&[], |d| &d.aligned);
         if aligned.as_slice() == current {
             return Ok(state);
@@ -571,7 +581,7 @@ impl Base {
         let mut search = PathSearch::new(nv);
         let singular: Vec<usize> = state.singularities.keys().copied().collect();
         for p in singular {
-            if on_curve[p] || !state.singularities.contains_key(&p) {
+            if on_curve[p] || !state.singularities.contains_key(&p) || self.settings.symmetry == 2 {
                 continue;
             }
             let dist = |q: usize| (self.mesh.position(q) - self.mesh.position(p)).length();
@@ -770,6 +780,7 @@ impl Base {
         &self,
         state: &EditState,
         turning: &[crate::constraint::CurveAlignment],
+        across: &BTreeSet<u32>,
     ) -> Vec<(u32, f64)> {
         let n = self.settings.symmetry as f64;
         // Per face the sum of e^{iNα} over its alignments.
@@ -783,11 +794,24 @@ impl Base {
             }
             sum
         };
-        let mut sum = combined(&crate::constraint::alignment(
-            &self.mesh,
-            state.curves.values(),
-            self.grid_size() / 2.0,
-        ));
+        let scale = self.grid_size() / 2.0;
+        let along = if across.is_empty() {
+            crate::constraint::alignment(&self.mesh, state.curves.values(), scale)
+        } else {
+            // The curves held across the stripes (N = 2) turned by 90° in their faces.
+            let mut out = Vec::new();
+            for c in state.curves.values() {
+                let mut aligned = crate::constraint::alignment(&self.mesh, [c], scale);
+                if across.contains(&c.id) {
+                    for a in &mut aligned {
+                        a.direction = self.mesh.face_normal(a.face).cross(a.direction);
+                    }
+                }
+                out.extend(aligned);
+            }
+            out
+        };
+        let mut sum = combined(&along);
         // Faces inside an acute corner between two curves take the corner's turning frame
         // instead (combined over the corners they lie in): their curves' mean would put both
         // curves on one line.
@@ -796,6 +820,24 @@ impl Base {
             .filter(|(_, (c, s))| c.hypot(*s) > 1e-9)
             .map(|(f, (c, s))| (f as u32, s.atan2(c) / n))
             .collect()
+    }
+
+    /// N = 2: the geometric curves the field is held across (`constraint::stripe_across`);
+    /// each component of curves meeting at corners the way the unconstrained field agrees with
+    /// most along it. Empty for other symmetries.
+    fn stripe_across(&self, state: &EditState) -> BTreeSet<u32> {
+        if self.settings.symmetry != 2 {
+            return BTreeSet::new();
+        }
+        let scale = self.grid_size() / 2.0;
+        let theta = &self.field.theta;
+        let agreement = |c: &crate::constraint::Curve| {
+            crate::constraint::alignment(&self.mesh, [c], scale)
+                .iter()
+                .map(|a| (2.0 * (self.bases.angle_of(a.face, a.direction) - theta[a.face])).cos())
+                .sum::<f64>()
+        };
+        crate::constraint::stripe_across(&self.mesh, state.curves.values(), agreement)
     }
 
     fn apply_singularity_edit(
