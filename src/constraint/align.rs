@@ -719,14 +719,9 @@ mod tests {
         }
     }
 
-    /// The frame's angle in degrees modulo 90° (N = 4), in [0, 90).
-    fn mod90(d: DVec3) -> f64 {
-        d.y.atan2(d.x).to_degrees().rem_euclid(90.0)
-    }
-
-    #[test]
-    fn the_faces_of_an_acute_corner_turn_to_the_next_direction() {
-        // A flat fan around vertex 0; ring vertices at these angles (degrees).
+    /// A flat fan around vertex 0, its ring vertices 1..=8 at 0°, 20°, 40°, 100°, 160°, 220°,
+    /// 280° and 330°.
+    fn flat_fan() -> TriMesh {
         let angles = [0.0f64, 20.0, 40.0, 100.0, 160.0, 220.0, 280.0, 330.0];
         let mut positions = vec![DVec3::ZERO];
         positions.extend(
@@ -736,7 +731,17 @@ mod tests {
         );
         let k = angles.len() as u32;
         let faces: Vec<[u32; 3]> = (0..k).map(|i| [0, 1 + i, 1 + (i + 1) % k]).collect();
-        let mesh = TriMesh::from_triangles(positions, faces).unwrap();
+        TriMesh::from_triangles(positions, faces).unwrap()
+    }
+
+    /// The frame's angle in degrees modulo 90° (N = 4), in [0, 90).
+    fn mod90(d: DVec3) -> f64 {
+        d.y.atan2(d.x).to_degrees().rem_euclid(90.0)
+    }
+
+    #[test]
+    fn the_faces_of_an_acute_corner_turn_to_the_next_direction() {
+        let mesh = flat_fan();
         // Two curves meeting at 0 at 40°: the two faces between them turn the frame from the
         // first curve (0°) by 40° − 90° = −50°, linearly: −12.5° and −37.5° at their middles.
         let a = curve(0, &[1, 0], CurveKind::Geometric);
@@ -780,17 +785,8 @@ mod tests {
 
     #[test]
     fn stripes_take_right_angled_curves_in_two_families() {
-        // The flat fan of the test above; curves leave vertex 0 at 0°, 100° and 160°.
-        let angles = [0.0f64, 20.0, 40.0, 100.0, 160.0, 220.0, 280.0, 330.0];
-        let mut positions = vec![DVec3::ZERO];
-        positions.extend(
-            angles
-                .iter()
-                .map(|a| DVec3::new(a.to_radians().cos(), a.to_radians().sin(), 0.0)),
-        );
-        let k = angles.len() as u32;
-        let faces: Vec<[u32; 3]> = (0..k).map(|i| [0, 1 + i, 1 + (i + 1) % k]).collect();
-        let mesh = TriMesh::from_triangles(positions, faces).unwrap();
+        // Curves leave vertex 0 at 0°, 100° and 160°.
+        let mesh = flat_fan();
         let a = curve(0, &[1, 0], CurveKind::Geometric);
         let b = curve(1, &[0, 4], CurveKind::Geometric);
         let c = curve(2, &[0, 5], CurveKind::Geometric);
