@@ -22,6 +22,36 @@ pub use crate::constraint::{Curve, CurveKind, CurveOrigin};
 pub use base::{Base, EditState, MovePreview, Replay, Reuse, Skipped, Solved};
 pub use project::{MeshRef, Project, ProjectError, Settings};
 
+/// A vertex index of an edit, read with a message a user can act on (serde's own says
+/// "invalid value: integer `-13`, expected usize").
+fn vertex_number<'de, D: serde::Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
+    let v = serde_json::Value::deserialize(d)?;
+    as_vertex(&v).ok_or_else(|| {
+        serde::de::Error::custom(format!(
+            "{v} is not a vertex number (a whole number from 0 up)"
+        ))
+    })
+}
+
+/// [`vertex_number`] for a curve's vertex list, naming the position of a bad entry.
+fn vertex_numbers<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<usize>, D::Error> {
+    let list = Vec::<serde_json::Value>::deserialize(d)?;
+    list.iter()
+        .enumerate()
+        .map(|(i, v)| {
+            as_vertex(v).ok_or_else(|| {
+                serde::de::Error::custom(format!(
+                    "vertices: {v} at position {i} is not a vertex number (a whole number from 0 up)"
+                ))
+            })
+        })
+        .collect()
+}
+
+fn as_vertex(v: &serde_json::Value) -> Option<usize> {
+    v.as_u64().and_then(|x| usize::try_from(x).ok())
+}
+
 /// One user edit, as written in a project file: a JSON object tagged by `op`.
 /// Later kinds (density) join this list.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -30,7 +60,9 @@ pub enum Edit {
     /// Move the singularity at file vertex `from` to file vertex `to` along a shortest edge path
     /// (merging with a singularity there, or leaving through the boundary).
     MoveSingularity {
+        #[serde(deserialize_with = "vertex_number")]
         from: usize,
+        #[serde(deserialize_with = "vertex_number")]
         to: usize,
     },
     /// Move every singularity to the neighbouring vertex that lowers the total curl, until none
@@ -40,6 +72,7 @@ pub enum Edit {
     /// consecutive ones sharing an edge (and the last and the first when `closed`).
     AddCurve {
         id: u32,
+        #[serde(deserialize_with = "vertex_numbers")]
         vertices: Vec<usize>,
         #[serde(default)]
         closed: bool,

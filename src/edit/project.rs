@@ -481,7 +481,28 @@ mod tests {
         let e = err(&bad_op);
         assert!(e.contains("edit 2") && e.contains("explode"), "{e}");
         let e = err(&json.replace("\"from\": 3", "\"from\": -3"));
-        assert!(e.contains("edit 1"), "{e}");
+        assert!(
+            e.contains("edit 1") && e.contains("-3 is not a vertex number"),
+            "{e}"
+        );
+        // A curve's bad vertex: its position named.
+        let mut c = p.clone();
+        c.edits = vec![Edit::AddCurve {
+            id: 4,
+            vertices: vec![1, 2, 3],
+            closed: false,
+            kind: crate::edit::CurveKind::Geometric,
+        }];
+        let curve = c.to_json();
+        for bad in ["-2", "2.5", "\"2\""] {
+            let text = curve.replacen("2,", &format!("{bad},"), 1);
+            assert_ne!(text, curve);
+            let e = err(&text);
+            assert!(
+                e.contains("edit 1") && e.contains(&format!("{bad} at position 1")),
+                "{e}"
+            );
+        }
         let e = err(&json.replace("\"tau\"", "\"tua\""));
         assert!(e.contains("settings") && e.contains("tua"), "{e}");
         let e = err(&json.replace("quadcover-project", "something"));
