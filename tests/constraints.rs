@@ -1412,3 +1412,51 @@ fn stripes_follow_the_creases_of_prisms() {
     assert_eq!(p.flipped_faces, 0, "{what}");
     assert!(p.miswound.is_empty(), "{what}: {:?}", p.miswound);
 }
+
+/// A capped cylinder whose caps are fans of 96 triangles around their centres (radius 1, 16
+/// rings): the field's zero of order 4 in each cap stays whole at the centre whatever the
+/// renormalization does (the fan is a cycle of the dual graph around no face), and becomes a
+/// pole (conformal distortion 2.1, p99 8.0). `solve` says so and names `--prepare`, which
+/// remeshes the fans: then each cap has four +1/4 and nothing is said.
+#[test]
+fn poles_at_fan_centres_are_pointed_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = generate::capped_cylinder(1.0, 2.0, 96, 40, 16);
+    let part = dir.path().join("part.obj");
+    quadcover::io::write_obj(
+        &part,
+        &quadcover::io::ObjOutput::new(mesh.positions(), mesh.faces()),
+    )
+    .unwrap();
+    assert_eq!(quadcover::mesh::isotropic::fan_centres(&mesh).len(), 2);
+    let exe = env!("CARGO_BIN_EXE_quadcover");
+    let run = |extra: &[&str]| {
+        let report = dir.path().join("r.json");
+        let out = std::process::Command::new(exe)
+            .args(["solve", part.to_str().unwrap(), "--features", "40"])
+            .args(extra)
+            .arg("--out")
+            .arg(dir.path().join("uv.obj"))
+            .arg("--report")
+            .arg(&report)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let r: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        (String::from_utf8_lossy(&out.stderr).into_owned(), r)
+    };
+    let (said, r) = run(&[]);
+    let poles = r["poles"].as_array().unwrap().len();
+    eprintln!("fans kept: {poles} poles");
+    // Said exactly when a pole sits there (two today).
+    assert_eq!(poles > 0, said.contains("centre of a fan"), "{said}");
+    let (said, r) = run(&["--prepare"]);
+    assert!(!said.contains("centre of a fan"), "{said}");
+    assert!(r["poles"].as_array().unwrap().is_empty(), "{}", r["poles"]);
+    assert_eq!(r["singularities"].as_array().unwrap().len(), 8);
+}

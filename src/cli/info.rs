@@ -50,6 +50,15 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     } else {
         println!();
     }
+    let fans = crate::mesh::isotropic::fan_centres(&loaded.mesh);
+    if !fans.is_empty() {
+        println!(
+            "fan centres     {} vertices with {} or more triangles (round faces of a CAD \
+             tessellation): poles there cannot split; `solve --prepare` remeshes them",
+            fans.len(),
+            crate::mesh::isotropic::FAN_VALENCE
+        );
+    }
     if loaded.report.warnings.is_empty() {
         println!("warnings        none");
     } else {

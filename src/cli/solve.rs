@@ -788,6 +788,29 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             c.max_multiplier, c.singularities, c.faces
         ));
     }
+    let fans = crate::mesh::isotropic::fan_centres(&mesh);
+    let at_fans: Vec<usize> = p
+        .poles
+        .iter()
+        .map(|q| q.vertex)
+        .filter(|v| fans.binary_search(v).is_ok())
+        .collect();
+    if !at_fans.is_empty() {
+        bar.line(format!(
+            "  warning: {} of the {} poles sit at the centre of a fan of {} or more triangles \
+             (vertices {}; a CAD tessellation's round face), where the field cannot split them \
+             into {} singularities of +1/{n}: `--prepare` remeshes such fans",
+            at_fans.len(),
+            p.poles.len(),
+            crate::mesh::isotropic::FAN_VALENCE,
+            at_fans
+                .iter()
+                .map(|&v| repair.original_vertex[v].to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+            n
+        ));
+    }
     if let Some(path) = &args.report {
         let report = Report {
             prepared_input,

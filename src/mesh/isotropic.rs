@@ -101,6 +101,22 @@ pub fn needle_area_share(mesh: &TriMesh) -> f64 {
     if total > 0.0 { needles / total } else { 0.0 }
 }
 
+/// Triangles around a vertex from which it is a fan centre ([`fan_centres`]).
+pub const FAN_VALENCE: usize = 24;
+
+/// Vertices with [`FAN_VALENCE`] or more triangles around them: the centres of the fans a CAD
+/// tessellator puts on round faces. In the field's dual graph such a fan is a long cycle around
+/// no face, which holds a zero of order N at no cost: the field's renormalization cannot split
+/// it there, and it becomes a pole (a capped cylinder of radius 1 with 80–128 triangles round
+/// its caps' centres: two poles, conformal distortion 2.0–2.2, p99 5.6–9.9, with any number of
+/// renormalization steps; remeshed, eight +1/4 and 1.41–1.46, p99 2.0). None on the shared
+/// meshes (at most 12).
+pub fn fan_centres(mesh: &TriMesh) -> Vec<usize> {
+    (0..mesh.n_vertices())
+        .filter(|&v| mesh.outgoing(v).count() >= FAN_VALENCE)
+        .collect()
+}
+
 /// Whether `mesh` looks like a raw tessellation that the field cannot follow (see the module
 /// documentation): more than [`NEEDLE_AREA_SHARE`] of its area in needles.
 pub fn needs_remesh(mesh: &TriMesh) -> bool {
