@@ -2321,3 +2321,32 @@ fn a_raw_tessellation_is_flagged_and_remeshed_from_the_file_menu() {
     );
     assert_eq!(mesh.euler_characteristic(), raw.euler_characteristic());
 }
+
+/// A round face tessellated as a fan (a capped cylinder with 96 triangles round each cap's
+/// centre) is flagged on load: the field's pole there cannot split. The remeshed copy is not.
+#[test]
+fn fan_centres_are_flagged_on_load() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let part = quadcover::mesh::generate::capped_cylinder(1.0, 2.0, 96, 40, 16);
+    let path = dir.path().join("part.obj");
+    quadcover::io::write_obj(
+        &path,
+        &quadcover::io::ObjOutput::new(part.positions(), part.faces()),
+    )
+    .expect("write the cylinder");
+    let mut h = harness_with(&dir.path().join("recent.txt"), Some(path.clone()), false);
+    settle(&mut h);
+    h.get_by_label("File: part.obj");
+    h.get_by_label_contains("2 vertices are centres of fans");
+    assert!(h.query_by_label_contains("needle triangles").is_none());
+    h.get_by_label("File").click();
+    h.run_steps(2);
+    h.get_by_label("Remesh input").click();
+    h.run_steps(2);
+    settle(&mut h);
+    h.get_by_label("File: part-remeshed.obj");
+    assert!(
+        h.query_by_label_contains("centres of fans").is_none(),
+        "the copy is not flagged"
+    );
+}

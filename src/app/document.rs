@@ -271,6 +271,15 @@ fn finish_load(
             crate::mesh::isotropic::NEEDLE_DEG
         ));
     }
+    let fans = crate::mesh::isotropic::fan_centres(&mesh).len();
+    if fans > 0 {
+        report.warnings.push(format!(
+            "{fans} vertices are centres of fans of {} or more triangles (round faces of a CAD \
+             tessellation): a pole the field puts there cannot split into singularities of \
+             index 1/N; File > Remesh input makes an isotropic copy",
+            crate::mesh::isotropic::FAN_VALENCE
+        ));
+    }
     let stats = MeshStats::from(&mesh.topology());
     let scene = SceneData::from_trimesh(&mesh);
     Ok(LoadedDocument {
