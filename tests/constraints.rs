@@ -664,21 +664,17 @@ fn cli_features_and_broken_curve_files() {
     let dir = std::env::temp_dir().join(format!("qc-constraints-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let exe = env!("CARGO_BIN_EXE_quadcover");
-    let report = dir.join("r.json");
-    let out = std::process::Command::new(exe)
-        .args(["solve", path.to_str().unwrap(), "--features", "40", "--out"])
-        .arg(dir.join("uv.obj"))
-        .arg("--report")
-        .arg(&report)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let uv = dir.join("uv.obj");
+    let (_, r) = solve_cli(
+        &[
+            path.as_os_str(),
+            "--features".as_ref(),
+            "40".as_ref(),
+            "--out".as_ref(),
+            uv.as_os_str(),
+        ],
+        &dir.join("r.json"),
     );
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     let curves = r["curves"].as_array().unwrap();
     assert!(curves.len() >= 20);
     assert!(
@@ -1429,26 +1425,17 @@ fn poles_at_fan_centres_are_pointed_out() {
     )
     .unwrap();
     assert_eq!(quadcover::mesh::isotropic::fan_centres(&mesh).len(), 2);
-    let exe = env!("CARGO_BIN_EXE_quadcover");
+    let uv = dir.path().join("uv.obj");
     let run = |extra: &[&str]| {
-        let report = dir.path().join("r.json");
-        let out = std::process::Command::new(exe)
-            .args(["solve", part.to_str().unwrap(), "--features", "40"])
-            .args(extra)
-            .arg("--out")
-            .arg(dir.path().join("uv.obj"))
-            .arg("--report")
-            .arg(&report)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let r: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
-        (String::from_utf8_lossy(&out.stderr).into_owned(), r)
+        let mut args: Vec<&std::ffi::OsStr> = vec![
+            part.as_os_str(),
+            "--features".as_ref(),
+            "40".as_ref(),
+            "--out".as_ref(),
+            uv.as_os_str(),
+        ];
+        args.extend(extra.iter().map(std::ffi::OsStr::new));
+        solve_cli(&args, &dir.path().join("r.json"))
     };
     let (said, r) = run(&[]);
     let poles = r["poles"].as_array().unwrap().len();
@@ -1459,4 +1446,20 @@ fn poles_at_fan_centres_are_pointed_out() {
     assert!(!said.contains("centre of a fan"), "{said}");
     assert!(r["poles"].as_array().unwrap().is_empty(), "{}", r["poles"]);
     assert_eq!(r["singularities"].as_array().unwrap().len(), 8);
+}
+
+/// Runs `quadcover solve` with `args` and `--report report`; it must succeed. Returns its
+/// stderr and the report.
+fn solve_cli(args: &[&std::ffi::OsStr], report: &std::path::Path) -> (String, serde_json::Value) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_quadcover"))
+        .arg("solve")
+        .args(args)
+        .arg("--report")
+        .arg(report)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{stderr}");
+    let r = serde_json::from_str(&std::fs::read_to_string(report).unwrap()).unwrap();
+    (stderr, r)
 }
