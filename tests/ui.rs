@@ -2337,7 +2337,7 @@ fn fan_centres_are_flagged_on_load() {
     let mut h = harness_with(&dir.path().join("recent.txt"), Some(path.clone()), false);
     settle(&mut h);
     h.get_by_label("File: part.obj");
-    h.get_by_label_contains("2 vertices are centres of fans");
+    h.get_by_label_contains("2 vertices are centres of flat fans");
     assert!(h.query_by_label_contains("needle triangles").is_none());
     h.get_by_label("File").click();
     h.run_steps(2);
@@ -2346,7 +2346,7 @@ fn fan_centres_are_flagged_on_load() {
     settle(&mut h);
     h.get_by_label("File: part-remeshed.obj");
     assert!(
-        h.query_by_label_contains("centres of fans").is_none(),
+        h.query_by_label_contains("centres of flat fans").is_none(),
         "the copy is not flagged"
     );
 }

@@ -274,9 +274,9 @@ fn finish_load(
     let fans = crate::mesh::isotropic::fan_centres(&mesh).len();
     if fans > 0 {
         report.warnings.push(format!(
-            "{fans} vertices are centres of fans of {} or more triangles (round faces of a CAD \
-             tessellation): a pole the field puts there cannot split into singularities of \
-             index 1/N; File > Remesh input makes an isotropic copy",
+            "{fans} vertices are centres of flat fans of {} or more triangles (as CAD \
+             tessellators and UV spheres make): a pole the field puts there cannot split into \
+             singularities of index 1/N; File > Remesh input makes an isotropic copy",
             crate::mesh::isotropic::FAN_VALENCE
         ));
     }

@@ -53,8 +53,9 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     let fans = crate::mesh::isotropic::fan_centres(&loaded.mesh);
     if !fans.is_empty() {
         println!(
-            "fan centres     {} vertices with {} or more triangles (round faces of a CAD \
-             tessellation): poles there cannot split; `solve --prepare` remeshes them",
+            "fan centres     {} flat vertices with {} or more triangles (fans as CAD \
+             tessellators and UV spheres make): poles there cannot split; `solve --prepare` \
+             remeshes them",
             fans.len(),
             crate::mesh::isotropic::FAN_VALENCE
         );

@@ -104,16 +104,25 @@ pub fn needle_area_share(mesh: &TriMesh) -> f64 {
 /// Triangles around a vertex from which it is a fan centre ([`fan_centres`]).
 pub const FAN_VALENCE: usize = 24;
 
-/// Vertices with [`FAN_VALENCE`] or more triangles around them: the centres of the fans a CAD
-/// tessellator puts on round faces. In the field's dual graph such a fan is a long cycle around
-/// no face, which holds a zero of order N at no cost: the field's renormalization cannot split
-/// it there, and it becomes a pole (a capped cylinder of radius 1 with 80–128 triangles round
-/// its caps' centres: two poles, conformal distortion 2.0–2.2, p99 5.6–9.9, with any number of
-/// renormalization steps; remeshed, eight +1/4 and 1.41–1.46, p99 2.0). None on the shared
-/// meshes (at most 12).
+/// Largest |angle defect| (radians) of a fan centre ([`fan_centres`]): a nearly flat one.
+pub const FAN_FLAT_DEFECT: f64 = std::f64::consts::FRAC_PI_4;
+
+/// Interior vertices with [`FAN_VALENCE`] or more triangles around them and nearly no angle
+/// defect ([`FAN_FLAT_DEFECT`]): the centres of the fans a CAD tessellator puts on flat round
+/// faces. In the field's dual graph such a fan is a long cycle around no face, which holds a
+/// zero of order N at no cost: the field's renormalization cannot split it there, and it
+/// becomes a pole (a capped cylinder of radius 1 with 80–128 triangles round its caps' centres:
+/// two poles, conformal distortion 2.0–2.2, p99 5.6–9.9, with any number of renormalization
+/// steps; remeshed, eight +1/4 and 1.41–1.46, p99 2.0). A cone's apex is left out: its pole is
+/// the geometry's (remeshed, a cone with a 96-fold apex folded where it had not). None on the
+/// shared meshes (at most 12 triangles at a vertex).
 pub fn fan_centres(mesh: &TriMesh) -> Vec<usize> {
     (0..mesh.n_vertices())
-        .filter(|&v| mesh.outgoing(v).count() >= FAN_VALENCE)
+        .filter(|&v| {
+            !mesh.is_boundary_vertex(v)
+                && mesh.outgoing(v).count() >= FAN_VALENCE
+                && mesh.angle_defect(v).abs() < FAN_FLAT_DEFECT
+        })
         .collect()
 }
 
@@ -656,6 +665,28 @@ impl Work<'_> {
 mod tests {
     use super::*;
     use crate::mesh::generate;
+
+    #[test]
+    fn flat_fans_are_fan_centres_and_cone_apexes_are_not() {
+        // A capped cylinder's cap centres (64 triangles each) are flat fans; its rim vertices
+        // (6 triangles) are none.
+        let cyl = generate::capped_cylinder(1.0, 2.0, 64, 8, 4);
+        let centres = fan_centres(&cyl);
+        assert_eq!(centres.len(), 2);
+        for &c in &centres {
+            assert_eq!(cyl.position(c).x.abs() + cyl.position(c).y.abs(), 0.0);
+        }
+        // With fewer than FAN_VALENCE triangles none.
+        assert!(fan_centres(&generate::capped_cylinder(1.0, 2.0, 16, 8, 4)).is_empty());
+        // One cap pushed out into a cone: its apex's defect is large, so only the other cap
+        // is left.
+        let mut p = cyl.positions().to_vec();
+        for q in p.iter_mut().filter(|q| q.z == 2.0) {
+            q.z += 1.5 * (1.0 - (q.x * q.x + q.y * q.y).sqrt());
+        }
+        let cone = TriMesh::from_triangles(p, cyl.faces().to_vec()).unwrap();
+        assert_eq!(fan_centres(&cone).len(), 1);
+    }
 
     /// Sharp edges of `mesh` (dihedral above `deg`) as segments.
     fn sharp(mesh: &TriMesh, deg: f64) -> Vec<(DVec3, DVec3)> {
