@@ -277,12 +277,13 @@ pub fn stripe_corners<'a>(
 /// none. So two curves meeting at α want one family where α is nearer a multiple of π, two
 /// where it is nearer π/2 + kπ. Decided as a weighted two-colouring of the curves: the corners
 /// by how strongly they prefer (strongest first) joined into components with a parity (Kruskal
-/// with union–find), then single curves flipped while the summed cost falls; each component as
-/// a whole is then held the way `agreement` prefers (summed over its curves: the unconstrained
-/// field's agreement with holding the curve along, cos 2(α − θ), so that stripes keep following
-/// the curvature where the curves leave them free). Where the corners form an odd cycle (three
-/// creases at a box's corner) one corner keeps its turn: no colouring avoids it. In curve order:
-/// deterministic.
+/// with union–find), then single curves flipped while the summed cost falls; each component
+/// with a corner as a whole is then held the way `agreement` prefers (summed over its curves:
+/// `Base` passes the unconstrained field's agreement with holding the curve along,
+/// Σ cos 2(α − θ), so that stripes keep following the curvature where the curves leave them
+/// free); a curve without an interior corner stays along. Corners at boundary apexes are not
+/// counted. Where the corners form an odd cycle (three creases at a box's corner) one corner
+/// keeps its turn: no colouring avoids it. In curve order: deterministic.
 pub fn stripe_across<'a>(
     mesh: &TriMesh,
     curves: impl IntoIterator<Item = &'a Curve>,
@@ -295,12 +296,12 @@ pub fn stripe_across<'a>(
     let index: std::collections::BTreeMap<u32, usize> =
         curves.iter().enumerate().map(|(i, c)| (c.id, i)).collect();
     let (sectors, _) = curve_sectors(mesh, curves.iter().copied());
-    // Per corner (curve i, curve j, cost of one family − cost of two): the squared distance
-    // to the corner each would be held to.
-    // (The distance to the nearest multiple of π, 0 included, for one family: an acute corner
-    // of one family is then cheap, and is held open to 180° by [`stripe_corners`]; costed by
-    // its corner of 180° instead, the star prism's 38° tips went to two families and a wall's
-    // corner of 90° was opened instead: fandisk at 40° 165 → 1333 folded faces.)
+    // Per corner (curve i, curve j, cost of one family − cost of two): for two families the
+    // squared distance to the corner it would be held to ([`stripe_corner`]); for one, to the
+    // nearest multiple of π, 0 included. An acute corner of one family is then cheap (and is
+    // held open to 180° by [`stripe_corners`]); costed by its corner of 180° instead, the star
+    // prism's 38° tips went to two families and a wall's 90° corner was opened instead
+    // (fandisk at 40°: 165 → 1333 folded faces).
     let off = |x: f64| {
         let r = x.rem_euclid(std::f64::consts::PI);
         r.min(std::f64::consts::PI - r)
