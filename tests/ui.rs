@@ -2286,30 +2286,41 @@ fn renormalize_field_is_a_solve_setting() {
     );
 }
 
+/// The editor opened on `mesh`, written as `part.obj` into `dir`, with the load settled.
+fn open_part(dir: &Path, mesh: &quadcover::mesh::TriMesh) -> Harness<'static, EditorApp> {
+    let path = dir.join("part.obj");
+    quadcover::io::write_obj(
+        &path,
+        &quadcover::io::ObjOutput::new(mesh.positions(), mesh.faces()),
+    )
+    .expect("write the part");
+    let mut h = harness_with(&dir.join("recent.txt"), Some(path), false);
+    settle(&mut h);
+    h.get_by_label("File: part.obj");
+    h
+}
+
+/// File ▸ Remesh input on the open `part.obj`: the copy is written and opened without an error.
+fn remesh_input(h: &mut Harness<'static, EditorApp>) {
+    h.get_by_label("File").click();
+    h.run_steps(2);
+    h.get_by_label("Remesh input").click();
+    h.run_steps(2);
+    settle(h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    h.get_by_label("File: part-remeshed.obj");
+}
+
 /// A raw CAD tessellation (needles, fanned caps) is flagged on load; File ▸ Remesh input writes
 /// an isotropic copy beside it and opens it, and the copy maps without a fold.
 #[test]
 fn a_raw_tessellation_is_flagged_and_remeshed_from_the_file_menu() {
     let dir = tempfile::tempdir().expect("tempdir");
     let raw = quadcover::mesh::generate::raw_cylinder(0.5, 1.2, 48);
-    let path = dir.path().join("part.obj");
-    quadcover::io::write_obj(
-        &path,
-        &quadcover::io::ObjOutput::new(raw.positions(), raw.faces()),
-    )
-    .expect("write the raw cylinder");
-    let mut h = harness_with(&dir.path().join("recent.txt"), Some(path.clone()), false);
-    settle(&mut h);
-    h.get_by_label("File: part.obj");
+    let mut h = open_part(dir.path(), &raw);
     h.get_by_label_contains("needle triangles");
 
-    h.get_by_label("File").click();
-    h.run_steps(2);
-    h.get_by_label("Remesh input").click();
-    h.run_steps(2);
-    settle(&mut h);
-    assert!(h.state().error.is_none(), "{:?}", h.state().error);
-    h.get_by_label("File: part-remeshed.obj");
+    remesh_input(&mut h);
     let written = dir.path().join("part-remeshed.obj");
     assert!(written.exists());
     let mesh = h.state().document.mesh.clone().expect("a mesh");
@@ -2328,23 +2339,10 @@ fn a_raw_tessellation_is_flagged_and_remeshed_from_the_file_menu() {
 fn fan_centres_are_flagged_on_load() {
     let dir = tempfile::tempdir().expect("tempdir");
     let part = quadcover::mesh::generate::capped_cylinder(1.0, 2.0, 96, 40, 16);
-    let path = dir.path().join("part.obj");
-    quadcover::io::write_obj(
-        &path,
-        &quadcover::io::ObjOutput::new(part.positions(), part.faces()),
-    )
-    .expect("write the cylinder");
-    let mut h = harness_with(&dir.path().join("recent.txt"), Some(path.clone()), false);
-    settle(&mut h);
-    h.get_by_label("File: part.obj");
+    let mut h = open_part(dir.path(), &part);
     h.get_by_label_contains("2 vertices are centres of flat fans");
     assert!(h.query_by_label_contains("needle triangles").is_none());
-    h.get_by_label("File").click();
-    h.run_steps(2);
-    h.get_by_label("Remesh input").click();
-    h.run_steps(2);
-    settle(&mut h);
-    h.get_by_label("File: part-remeshed.obj");
+    remesh_input(&mut h);
     assert!(
         h.query_by_label_contains("centres of flat fans").is_none(),
         "the copy is not flagged"

@@ -798,8 +798,8 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     if !at_fans.is_empty() {
         bar.line(format!(
             "  warning: {} of the {} poles sit at the centre of a fan of {} or more triangles \
-             (vertices {}; flat fans as CAD tessellators and UV spheres make), where the field cannot split them \
-             into {} singularities of +1/{n}: `--prepare` remeshes such fans",
+             (vertices {}; flat fans as CAD tessellators and UV spheres make), where the field \
+             cannot split them into {} singularities of +1/{n}: `--prepare` remeshes such fans",
             at_fans.len(),
             p.poles.len(),
             crate::mesh::isotropic::FAN_VALENCE,

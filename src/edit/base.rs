@@ -483,23 +483,22 @@ impl Base {
     /// designed again with it (matchings and singularities anew, as for a fresh solve) and the
     /// singularity edits since the last design are re-applied where they still apply.
     fn redesign(&self, mut state: EditState, cancel: Cancel) -> Result<EditState, EditError> {
-        let across = self.stripe_across(&state);
-        let acute = if self.settings.symmetry == 2 {
-            crate::constraint::stripe_corners(
+        let stripes = self.stripes(&state);
+        let acute = match &stripes {
+            Some((across, _)) => crate::constraint::stripe_corners(
                 &self.mesh,
                 state.curves.values(),
-                &across,
+                across,
                 self.grid_size() * CORNER_REACH,
-            )
-        } else {
-            crate::constraint::acute_corners(
+            ),
+            None => crate::constraint::acute_corners(
                 &self.mesh,
                 state.curves.values(),
                 self.settings.symmetry,
                 self.grid_size() * CORNER_REACH,
-            )
+            ),
         };
-        let aligned = self.design_alignment(&state, &acute.alignments, &across);
+        let aligned = self.design_alignment(&state, &acute.alignments, stripes.map(|s| s.1));
         let current: &[(u32, f64)] = state.design.as_ref().map_or(&[], |d| &d.aligned);
         if aligned.as_slice() == current {
             return Ok(state);
@@ -581,9 +580,13 @@ impl Base {
             }
         }
         let mut search = PathSearch::new(nv);
-        let singular: Vec<usize> = state.singularities.keys().copied().collect();
+        let singular: Vec<usize> = if self.settings.symmetry == 2 {
+            Vec::new()
+        } else {
+            state.singularities.keys().copied().collect()
+        };
         for p in singular {
-            if on_curve[p] || !state.singularities.contains_key(&p) || self.settings.symmetry == 2 {
+            if on_curve[p] || !state.singularities.contains_key(&p) {
                 continue;
             }
             let dist = |q: usize| (self.mesh.position(q) - self.mesh.position(p)).length();
@@ -782,7 +785,7 @@ impl Base {
         &self,
         state: &EditState,
         turning: &[crate::constraint::CurveAlignment],
-        across: &BTreeSet<u32>,
+        curve_aligned: Option<Vec<crate::constraint::CurveAlignment>>,
     ) -> Vec<(u32, f64)> {
         let n = self.settings.symmetry as f64;
         // Per face the sum of e^{iNα} over its alignments.
@@ -796,23 +799,9 @@ impl Base {
             }
             sum
         };
-        let scale = self.grid_size() / 2.0;
-        let along = if across.is_empty() {
-            crate::constraint::alignment(&self.mesh, state.curves.values(), scale)
-        } else {
-            // The curves held across the stripes (N = 2) turned by 90° in their faces.
-            let mut out = Vec::new();
-            for c in state.curves.values() {
-                let mut aligned = crate::constraint::alignment(&self.mesh, [c], scale);
-                if across.contains(&c.id) {
-                    for a in &mut aligned {
-                        a.direction = self.mesh.face_normal(a.face).cross(a.direction);
-                    }
-                }
-                out.extend(aligned);
-            }
-            out
-        };
+        let along = curve_aligned.unwrap_or_else(|| {
+            crate::constraint::alignment(&self.mesh, state.curves.values(), self.grid_size() / 2.0)
+        });
         let mut sum = combined(&along);
         // Faces inside an acute corner between two curves take the corner's turning frame
         // instead (combined over the corners they lie in): their curves' mean would put both
@@ -824,22 +813,49 @@ impl Base {
             .collect()
     }
 
-    /// N = 2: the geometric curves the field is held across (`constraint::stripe_across`);
+    /// N = 2: the geometric curves the field is held across (`constraint::stripe_across`;
     /// each component of curves meeting at corners the way the unconstrained field agrees with
-    /// most along it. Empty for other symmetries.
-    fn stripe_across(&self, state: &EditState) -> BTreeSet<u32> {
+    /// most along it) and the curves' alignments, those held across turned by 90° in their
+    /// faces (in curve order, as `constraint::alignment` gives them). None for other
+    /// symmetries.
+    fn stripes(
+        &self,
+        state: &EditState,
+    ) -> Option<(BTreeSet<u32>, Vec<crate::constraint::CurveAlignment>)> {
         if self.settings.symmetry != 2 {
-            return BTreeSet::new();
+            return None;
         }
         let scale = self.grid_size() / 2.0;
+        let per_curve: BTreeMap<u32, Vec<crate::constraint::CurveAlignment>> = state
+            .curves
+            .values()
+            .map(|c| (c.id, crate::constraint::alignment(&self.mesh, [c], scale)))
+            .collect();
         let theta = &self.field.theta;
         let agreement = |c: &crate::constraint::Curve| {
-            crate::constraint::alignment(&self.mesh, [c], scale)
+            per_curve[&c.id]
                 .iter()
                 .map(|a| (2.0 * (self.bases.angle_of(a.face, a.direction) - theta[a.face])).cos())
                 .sum::<f64>()
         };
-        crate::constraint::stripe_across(&self.mesh, state.curves.values(), agreement)
+        let across = crate::constraint::stripe_across(&self.mesh, state.curves.values(), agreement);
+        let mut aligned = Vec::new();
+        for c in state.curves.values() {
+            let turn = across.contains(&c.id);
+            aligned.extend(
+                per_curve[&c.id]
+                    .iter()
+                    .map(|&a| crate::constraint::CurveAlignment {
+                        direction: if turn {
+                            self.mesh.face_normal(a.face).cross(a.direction)
+                        } else {
+                            a.direction
+                        },
+                        ..a
+                    }),
+            );
+        }
+        Some((across, aligned))
     }
 
     fn apply_singularity_edit(
