@@ -248,7 +248,10 @@ fn branch_points_rounded_far_away_are_rewound_around_their_lattice_point() {
 }
 
 /// Every shared mesh (igea with QUADCOVER_TEST_IGEA=1), N = 2, 4 (gaps on ½Z² and on 2Z², the
-/// default), 6, at the default density and a coarse one (1500 vertices): no folded face.
+/// default), 6, at the default density and a coarse one (1500 vertices): no folded face, and
+/// the conformal distortion (mean and 99th percentile) at most 5 % above the global step's map
+/// (issue #15; worst +3.7 % at the 99th percentile on 2026-12-06, 4 cases at +5–13 % before
+/// the conformal relaxation reached beyond the changed faces).
 #[test]
 fn shared_meshes_have_no_folded_face() {
     if !Path::new(MESHES).exists() {
@@ -261,6 +264,7 @@ fn shared_meshes_have_no_folded_face() {
     let mut left: Vec<(String, usize)> = Vec::new();
     let mut wound = 0;
     let mut refined = 0;
+    let mut distorted: Vec<String> = Vec::new();
     for name in meshes::EVERY_BUT_IGEA.into_iter().chain(["igea.obj"]) {
         if name == "igea.obj" && !big {
             eprintln!("skipping igea.obj (set QUADCOVER_TEST_IGEA=1)");
@@ -292,6 +296,13 @@ fn shared_meshes_have_no_folded_face() {
                 // would have to take their star faces by their quads otherwise.
                 assert!(p.poles.is_empty(), "{label}: a pole");
                 check(&label, &mesh, &p, &plain);
+                let (before, after) = (&plain.conformal_distortion, &p.conformal_distortion);
+                if after.p99 > 1.05 * before.p99 || after.mean > 1.05 * before.mean {
+                    distorted.push(format!(
+                        "{label}: {:.4}/{:.3} -> {:.4}/{:.3}",
+                        before.mean, before.p99, after.mean, after.p99
+                    ));
+                }
                 repaired += usize::from(plain.flipped_faces > 0);
                 wound += p.miswound.len();
                 refined += usize::from(p.crowded_refinement.is_some());
@@ -318,6 +329,10 @@ fn shared_meshes_have_no_folded_face() {
         );
     }
     assert!(checked >= 70, "{checked} cases checked");
+    assert!(
+        distorted.is_empty(),
+        "conformal distortion more than 5 % above the global step's map: {distorted:?}"
+    );
     // Mis-wound vertices left over all cases: 263 before the rewinding (2026-12-02), 173
     // before the second rewinding on the final map, 97 before the tries around crowded
     // singularities, 40 before the re-rounding for windings (`reround_windings`), 12 since

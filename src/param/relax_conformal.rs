@@ -47,19 +47,26 @@ impl QuadCover {
             return Ok(p);
         }
         let t = std::time::Instant::now();
-        let (local, global) = match last {
+        // The level: the global step's 99th percentile, on the gaps the map was first rounded
+        // to when the repair rounded some again (the "before the repair").
+        let (local, global, level) = match last {
             Some(LastSolve {
                 local,
                 global: (gaps, global),
-            }) if gaps == p.gaps => (local, global),
-            Some(LastSolve { local, .. }) => {
+            }) if gaps == p.gaps => (local, global, None),
+            Some(LastSolve {
+                local,
+                global: (_, first),
+            }) => {
                 let global = self.global_uv(mesh, &local, &p.gaps)?;
-                (local, global)
+                let p99 = |uv: &[[f64; 2]]| metrics::conformal_p99(&metrics::jacobians(mesh, uv));
+                let level = p99(&first).min(p99(&global));
+                (local, global, Some(level))
             }
             None => {
                 let local = self.local_step(mesh, frames)?;
                 let global = self.global_uv(mesh, &local, &p.gaps)?;
-                (local, global)
+                (local, global, None)
             }
         };
         let space = self.global.map_space(mesh.n_vertices(), &p.gaps);
@@ -72,6 +79,7 @@ impl QuadCover {
             &local.guide,
             &cones,
             &global,
+            level,
             &p.uv,
             &p.miswound,
             cancel,

@@ -111,16 +111,24 @@ const FOLD_STAGNATION_HELD: usize = 10;
 const EPS_BARRIER: f64 = 1e-10;
 /// Rings around the repaired folds over which the result is relaxed afterwards.
 const RELAX_RINGS: usize = 8;
-/// Rings around the seeds of [`relax_conformal`]: over the 72 cases of `tests/untangle.rs`,
-/// p99 misses (more than 5 % above the global step's map) 7 with 1 ring, 2 with 2, 3 with 4,
-/// 12 with 8 (larger regions pass [`MAX_REGION`] and are not solved).
-const CONFORMAL_RINGS: usize = 2;
-/// Passes of [`relax_conformal`] at most: each seeds its regions again where the last left
-/// faces above the level, and is kept only when the 99th percentile falls. Over the 72 cases
-/// of `tests/untangle.rs` (2026-12-05), against one pass: p99 lower in 36, higher in none,
-/// more than 5 % above the global step's map in 6 → 4 (the cerebral vessels' stripes at both
-/// densities now within); 8 passes gave the same.
-const CONFORMAL_PASSES: usize = 4;
+/// Rings around the seeds of [`relax_conformal`], one entry per pass. Narrow and wide
+/// alternate: seeds in clusters grow into regions past [`MAX_REGION`] at 4 rings, which are
+/// not solved, while isolated seeds need the room (fertility, N = 6, 1500 vertices, on its
+/// crowded try: p99 3.45 with 4 rings in every pass, 2.78 with 2 after a first 4, 2.71
+/// alternating). Over the 72 cases of `tests/untangle.rs` (2026-12-06), worst p99 against
+/// the global step's map: +4.1 % with 4, 2, 2, 2 or 4, 2, 4, 2, 4, 2; +3.7 % with this. Before
+/// the reach and per-face weights, with 2 rings in up to 4 passes, 4 cases were 5–13 % above
+/// (with 1, 4 or 8 rings in the first pass more).
+const CONFORMAL_RINGS: [usize; 6] = [2, 4, 2, 4, 2, 4];
+/// Rings around the faces the repair changed within which [`relax_conformal`] takes faces
+/// above the level as seeds, changed or not: where the repair had to leave a singularity's fan
+/// more distorted (a branch point parted from another by re-rounding), the faces of the
+/// neighbouring fans that the global step left above the level make room for it. Over the 72
+/// cases (first pass 4 rings, then 2): the changed faces only, 4 p99 misses (+5–13 %); 4 or 8
+/// rings, 1 (max-planck, N = 6, 1500 vertices, +12 %); 16, none; the whole mesh, none either,
+/// but the repair then moves a fifth of the bunny's corners at 1500 vertices (N = 4; a tenth
+/// with 16 rings, test `the_repair_unfolds_what_no_untangle_keeps`).
+const CONFORMAL_REACH: usize = 16;
 
 /// The seamless maps of the global step: ψ_c = consts_c + R^{rot_c} Q_v y_v for corner c of
 /// v = var_c (ψ_c = consts_c where var_c is NONE); components i of y_v with `free[v][i]` false
@@ -865,6 +873,7 @@ pub(crate) fn repair(
             frames: &reference,
             mean_area,
             cones: &[],
+            per_face: false,
         };
         let stuck = at.repair(&[], uv, cancel);
         return Repair {
@@ -904,6 +913,7 @@ pub(crate) fn repair(
         frames: &reference,
         mean_area,
         cones,
+        per_face: false,
     };
     // The rewound start grows its regions to [`REWOUND_WIDEST_RINGS`] only: the global step's
     // map is the fallback.
@@ -968,6 +978,7 @@ pub(crate) fn rewind_left(
         frames: &reference,
         mean_area: mean_target_area(mesh, &reference),
         cones,
+        per_face: false,
     };
     let guide_area = mean_target_area(mesh, guide);
     let rounds = if mesh.n_faces() >= super::MISWOUND_TRIES_MAX_FACES {
@@ -1025,6 +1036,9 @@ struct Regions<'a> {
     frames: &'a [[DVec3; 2]],
     mean_area: f64,
     cones: &'a [f64],
+    /// Every face weighs the mean target area instead of its own ([`relax_conformal`]: the
+    /// 99th percentile it aims at counts faces, and the most distorted ones are often small).
+    per_face: bool,
 }
 
 /// What [`Regions::unfold`] leaves for [`Regions::relax_repaired`]: the stuck faces and the
@@ -1144,6 +1158,7 @@ impl Regions<'_> {
             frames,
             mean_area,
             cones,
+            per_face,
         } = *self;
         let updates: Vec<Vec<(usize, [f64; 2])>> = regions(mesh, space, seeds, rings)
             .par_iter()
@@ -1151,7 +1166,10 @@ impl Regions<'_> {
                 let held = r.iter().any(|&v| space.free[v] != [true, true]);
                 r.len() <= if held { MAX_HELD_REGION } else { MAX_REGION }
             })
-            .map(|r| solve_region(mesh, rots, space, frames, mean_area, r, uv, relax, cancel))
+            .map(|r| {
+                let weights = (mean_area, per_face);
+                solve_region(mesh, rots, space, frames, weights, r, uv, relax, cancel)
+            })
             .map(|up| {
                 if keep && !cones.is_empty() && unwinds(mesh, rots, space, cones, uv, &up) {
                     Vec::new()
@@ -1168,20 +1186,21 @@ impl Regions<'_> {
     }
 }
 
-/// The last step on a repaired map (`QuadCover::relax_conformal_of`): the faces the repair
-/// changed (against `global`, the global step's map on the same gaps) that are more distorted
-/// than `global`'s 99th percentile are relaxed with [`CONFORMAL_RINGS`] rings around them towards
-/// the similarity part of their frames ([`conformal_frames`]), with the barrier, every branch
-/// point's winding kept and every region only when its energy decreased; then again where
-/// faces are still above the level, [`CONFORMAL_PASSES`] passes at most, each kept only when the
-/// 99th percentile falls and no vertex more is wound wrongly. The repair's own
-/// relaxation aims at the frames, which are anisotropic next to singularities; this one at the
-/// conformal distortion the report measures (72 cases: p99 more than 5 % above the global
-/// step's map in 18 → 2, docs/untangling.md). Seeding every changed face instead made
-/// regions past [`MAX_REGION`], which are not solved. `uv` has no fold; `miswound_now` are its
-/// mis-wound vertices ([`miswound`], sorted; only vertices next to changed faces are checked
-/// again). Returns the relaxed map and its mis-wound vertices; None when nothing changed or a
-/// free vertex ends up wound wrongly (the line search checks faces, not windings).
+/// The last step on a repaired map (`QuadCover::relax_conformal_of`): the faces within
+/// [`CONFORMAL_REACH`] rings of those the repair changed (against `global`, the global step's
+/// map on the same gaps) that are more distorted than `level` (`global`'s 99th percentile when
+/// None) are relaxed towards the similarity part of their frames ([`conformal_frames`]), every
+/// face weighing the same ([`Regions::per_face`]), with the barrier, every branch point's
+/// winding kept and every region only when its energy decreased; in passes of
+/// [`CONFORMAL_RINGS`] rings around the faces still above the level, each kept only when the
+/// 99th percentile falls and no vertex more is wound wrongly, until the map's 99th percentile
+/// is at or below the level (the bunny: 2 passes of 6, the repair 134–152 → 118–128 ms; at
+/// 1.1 M faces all 6). The repair's own relaxation aims at the frames, which are
+/// anisotropic next to singularities; this one at the conformal distortion the report
+/// measures (72 cases: p99 more than 5 % above the global step's map in 18 → 0,
+/// docs/untangling.md). `uv` has no fold; `miswound_now` are its mis-wound vertices
+/// ([`miswound`], sorted; only vertices next to changed faces are checked again). Returns the
+/// relaxed map and its mis-wound vertices; None when nothing changed.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn relax_conformal(
     mesh: &TriMesh,
@@ -1191,6 +1210,7 @@ pub(crate) fn relax_conformal(
     guide: &[[DVec3; 2]],
     cones: &[f64],
     global: &[[f64; 2]],
+    level: Option<f64>,
     uv: &[[f64; 2]],
     miswound_now: &[usize],
     cancel: super::CancelCheck<'_>,
@@ -1202,17 +1222,26 @@ pub(crate) fn relax_conformal(
         (p[0] - q[0]).hypot(p[1] - q[1]) > 1e-9 * (1.0 + q[0].abs().max(q[1].abs()))
     };
     let moved = |c: usize| moved_in(uv, c);
-    let level = super::metrics::conformal_p99(&super::metrics::jacobians(mesh, global));
-    let seeds: Vec<usize> = (0..mesh.n_faces())
+    let level = level
+        .unwrap_or_else(|| super::metrics::conformal_p99(&super::metrics::jacobians(mesh, global)));
+    // The reach: the vertices within CONFORMAL_REACH rings of the faces the repair changed.
+    let changed: Vec<usize> = (0..mesh.n_faces())
         .into_par_iter()
-        .filter(|&f| {
-            (0..3).any(|a| moved(3 * f + a)) && {
-                let (_, s1, s2) = super::metrics::jacobian(mesh, uv, f);
-                !(s1 <= level * s2)
-            }
-        })
+        .filter(|&f| (0..3).any(|a| moved(3 * f + a)))
+        .flat_map_iter(|f| mesh.face(f))
         .collect();
-    if seeds.is_empty() || cancel() {
+    let mut near = vec![false; mesh.n_vertices()];
+    for v in vertices_within(mesh, &changed, CONFORMAL_REACH) {
+        near[v] = true;
+    }
+    let within = |f: usize| mesh.face(f).iter().any(|&v| near[v]);
+    let above = |j: &(f64, f64, f64)| !(j.1 <= level * j.2);
+    let mut jac = super::metrics::jacobians(mesh, uv);
+    if !(0..mesh.n_faces())
+        .into_par_iter()
+        .any(|f| within(f) && above(&jac[f]))
+        || cancel()
+    {
         return None;
     }
     let reference = references(mesh, space, disk, guide);
@@ -1224,39 +1253,38 @@ pub(crate) fn relax_conformal(
         frames: &frames,
         mean_area: mean_target_area(mesh, &reference),
         cones,
+        per_face: true,
     };
+    // Passes, each seeded where the last left faces above the level and kept only when the
+    // 99th percentile falls and no vertex more is wound wrongly; a pass not kept leaves the
+    // next one, of the other width, to try.
     let mut relaxed = uv.to_vec();
-    at.solve(&mut relaxed, &seeds, CONFORMAL_RINGS, true, true, cancel);
-    let mut after = miswound_after(mesh, &relaxed, cones, miswound_now, uv);
-    if !(after.len() <= miswound_now.len() && relaxed.as_slice() != uv) {
-        return None;
-    }
-    // Further passes, seeded again where the last left faces above the level, each kept only
-    // when the 99th percentile falls and no vertex more is wound wrongly.
-    let mut jac = super::metrics::jacobians(mesh, &relaxed);
     let mut p99 = super::metrics::conformal_p99(&jac);
-    for _ in 1..CONFORMAL_PASSES {
-        if cancel() {
+    let mut after = miswound_now.to_vec();
+    // (a pass not kept leaves the map as it was: after one of each width, nothing more)
+    let mut not_kept = 0;
+    for rings in CONFORMAL_RINGS {
+        if p99 <= level || not_kept == 2 || cancel() {
             break;
         }
         let seeds: Vec<usize> = (0..mesh.n_faces())
             .into_par_iter()
             .filter(|&f| {
-                let (_, s1, s2) = jac[f];
-                (0..3).any(|a| moved_in(&relaxed, 3 * f + a)) && !(s1 <= level * s2)
+                (within(f) || (0..3).any(|a| moved_in(&relaxed, 3 * f + a))) && above(&jac[f])
             })
             .collect();
         if seeds.is_empty() {
             break;
         }
         let mut next = relaxed.clone();
-        at.solve(&mut next, &seeds, CONFORMAL_RINGS, true, true, cancel);
+        at.solve(&mut next, &seeds, rings, true, true, cancel);
         let changed: Vec<usize> = (0..mesh.n_faces())
             .into_par_iter()
             .filter(|&f| (3 * f..3 * f + 3).any(|c| next[c] != relaxed[c]))
             .collect();
         if changed.is_empty() {
-            break;
+            not_kept += 1;
+            continue;
         }
         let mut next_jac = jac.clone();
         for &f in &changed {
@@ -1265,9 +1293,14 @@ pub(crate) fn relax_conformal(
         let next_p99 = super::metrics::conformal_p99(&next_jac);
         let next_after = miswound_after(mesh, &next, cones, &after, &relaxed);
         if !(next_p99 < p99 && next_after.len() <= after.len()) {
-            break;
+            not_kept += 1;
+            continue;
         }
+        not_kept = 0;
         (relaxed, jac, p99, after) = (next, next_jac, next_p99, next_after);
+    }
+    if relaxed.as_slice() == uv {
+        return None;
     }
     Some((relaxed, after))
 }
@@ -1653,14 +1686,15 @@ fn ring_start(
 /// Newton on the untangling energy over the vertices `free` (module docs); returns their new
 /// unknowns when the region got better, nothing otherwise. With `relax` the region must be
 /// fold-free; it is minimised with the barrier (ε = [`EPS_BARRIER`]) and kept when the energy
-/// decreased and nothing folded.
+/// decreased and nothing folded. `(mean_area, per_face)`: the mean target area, and whether
+/// every face weighs it ([`Regions::per_face`]) instead of its own target area.
 #[allow(clippy::too_many_arguments)]
 fn solve_region(
     mesh: &TriMesh,
     rots: &Rots,
     space: &MapSpace,
     disk: &[[DVec3; 2]],
-    mean_area: f64,
+    (mean_area, per_face): (f64, bool),
     free: &[usize],
     uv: &[[f64; 2]],
     relax: bool,
@@ -1687,7 +1721,13 @@ fn solve_region(
             slot: std::array::from_fn(|a| {
                 slot_of.get(&mesh.from(3 * f + a)).copied().unwrap_or(NONE)
             }),
-            reference: reference(mesh, disk, f, mean_area),
+            reference: {
+                let mut r = reference(mesh, disk, f, mean_area);
+                if per_face {
+                    r.weight = mean_area;
+                }
+                r
+            },
         })
         .collect();
     let y0: Vec<[f64; 2]> = free
