@@ -336,9 +336,9 @@ fn shared_meshes_have_no_folded_face() {
     // Mis-wound vertices left over all cases: 263 before the rewinding (2026-12-02), 173
     // before the second rewinding on the final map, 97 before the tries around crowded
     // singularities, 40 before the re-rounding for windings (`reround_windings`), 12 since
-    // (2026-12-04).
+    // (2026-12-04), 4 since it tries every candidate for the last pair (2026-12-06).
     assert!(
-        big || wound <= 15,
+        big || wound <= 6,
         "{wound} mis-wound vertices left over the cases"
     );
     // The second try is kept where the first left folds or mis-wound vertices and it has

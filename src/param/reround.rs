@@ -30,6 +30,14 @@ const WINDING_MAX_VERTICES: usize = 12;
 /// repair 5.7 s leaving 6 mis-wound vertices without it, 30 s leaving 2 with it; igea, 270 k
 /// faces, keeps it).
 const WINDING_MAX_FACES: usize = 500_000;
+/// When at most this many vertices are wound wrongly (a branch point and the neighbour that
+/// took its turn: one patched place in the remesh), [`QuadCover::reround_windings`] tries every
+/// ranked candidate, not only the best [`REROUND_TRIES`] (a branch point's corners depend on 2
+/// or 3 gaps: 8 to 18 candidates). The cerebral vessels' last pair (N = 6, 1500 vertices) is
+/// parted by the 12th. With 4, the 72 cases of tests/untangle.rs end with no wrongly wound
+/// vertex (4 left with 2), but their repairs take 33 s instead of 25 (the bunny, N = 6 at 1500
+/// vertices, 1.2 → 6.0 s, for a map it already had none in).
+const WINDING_LAST: usize = 2;
 /// Rings around the wrongly wound vertices over which candidates are ranked.
 const WINDING_RANK_RINGS: usize = 4;
 /// A re-rounded map is kept only with a conformal distortion (99th percentile) at most this
@@ -266,7 +274,8 @@ impl QuadCover {
     /// moved by one lattice step, one at a time; the candidates are ranked by the repaired map
     /// plus the change of the global map they give, within [`WINDING_RANK_RINGS`] rings of the
     /// wrongly wound vertices (wrongly wound vertices, folds, rounding error), and the best
-    /// [`REROUND_TRIES`] are repaired from there (rewinding included). The first
+    /// [`REROUND_TRIES`] (every one for the last [`WINDING_LAST`]) are repaired from there
+    /// (rewinding included). The first
     /// that leaves no fold and fewer wrongly wound vertices is kept; rounds go on until none is
     /// left or nothing helps. Runs only for a few such vertices ([`WINDING_MAX_VERTICES`]).
     #[allow(clippy::too_many_arguments)]
@@ -343,7 +352,12 @@ impl QuadCover {
             };
             let p99_now = p99(uv);
             let mut kept = false;
-            for g in ranked.into_iter().take(REROUND_TRIES) {
+            let tries = if wrong.len() <= WINDING_LAST {
+                ranked.len()
+            } else {
+                REROUND_TRIES
+            };
+            for g in ranked.into_iter().take(tries) {
                 if cancel() {
                     break;
                 }
