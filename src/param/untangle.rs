@@ -1261,10 +1261,12 @@ pub(crate) fn relax_conformal(
     let mut relaxed = uv.to_vec();
     let mut p99 = super::metrics::conformal_p99(&jac);
     let mut after = miswound_now.to_vec();
-    // (a pass not kept leaves the map as it was: after one of each width, nothing more)
+    // (a pass not kept leaves the map as it was: after one of each width, nothing more; the
+    // first pass runs even when the repaired map's p99 is at the level already, as the faces
+    // above it are where the repair left its distortion)
     let mut not_kept = 0;
-    for rings in CONFORMAL_RINGS {
-        if p99 <= level || not_kept == 2 || cancel() {
+    for (pass, rings) in CONFORMAL_RINGS.into_iter().enumerate() {
+        if (pass > 0 && p99 <= level) || not_kept == 2 || cancel() {
             break;
         }
         let seeds: Vec<usize> = (0..mesh.n_faces())
