@@ -250,8 +250,8 @@ fn branch_points_rounded_far_away_are_rewound_around_their_lattice_point() {
 /// Every shared mesh (igea with QUADCOVER_TEST_IGEA=1), N = 2, 4 (gaps on ½Z² and on 2Z², the
 /// default), 6, at the default density and a coarse one (1500 vertices): no folded face, and
 /// the conformal distortion (mean and 99th percentile) at most 5 % above the global step's map
-/// (issue #15; worst +3.7 % at the 99th percentile on 2026-12-06, 4 cases at +5–13 % before
-/// the conformal relaxation reached beyond the changed faces).
+/// (issue #15; worst +3.7 % at the 99th percentile on 2026-12-06, igea's 8 with them +4.0 %;
+/// 4 cases at +5–13 % before the conformal relaxation reached beyond the changed faces).
 #[test]
 fn shared_meshes_have_no_folded_face() {
     if !Path::new(MESHES).exists() {

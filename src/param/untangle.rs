@@ -111,15 +111,20 @@ const FOLD_STAGNATION_HELD: usize = 10;
 const EPS_BARRIER: f64 = 1e-10;
 /// Rings around the repaired folds over which the result is relaxed afterwards.
 const RELAX_RINGS: usize = 8;
-/// Rings around the seeds of [`relax_conformal`], one entry per pass. Narrow and wide
-/// alternate: seeds in clusters grow into regions past [`MAX_REGION`] at 4 rings, which are
-/// not solved, while isolated seeds need the room (fertility, N = 6, 1500 vertices, on its
-/// crowded try: p99 3.45 with 4 rings in every pass, 2.78 with 2 after a first 4, 2.71
-/// alternating). Over the 72 cases of `tests/untangle.rs` (2026-12-06), worst p99 against
-/// the global step's map: +4.1 % with 4, 2, 2, 2 or 4, 2, 4, 2, 4, 2; +3.7 % with this. Before
-/// the reach and per-face weights, with 2 rings in up to 4 passes, 4 cases were 5–13 % above
-/// (with 1, 4 or 8 rings in the first pass more).
-const CONFORMAL_RINGS: [usize; 6] = [2, 4, 2, 4, 2, 4];
+/// Rings around the seeds of [`relax_conformal`], one entry per pass: the [`WIDTHS`] widths in
+/// turn. Seeds in clusters grow into regions past [`MAX_REGION`] at 4 rings, which are not
+/// solved, while isolated seeds need the room. Fertility, N = 6, 1500 vertices, on its crowded
+/// try: p99 3.45 with 4 rings in every pass, 2.78 with 2 after a first 4, 2.71 alternating 2
+/// and 4. igea at 1500 vertices (N = 4, 2Z²; a cell spans about 180 triangles, 7 000 seeds):
+/// 2.99 with 2 and 4, 3.17 with 4 and 8, 2.76 with 1 and 2, 2.70 with 2, 4 and 1 (its global
+/// step's map 2.65). Over the 72 cases of `tests/untangle.rs` and igea's 8 (2026-12-06), worst
+/// p99 against the global step's map: 2, 4 in turn +3.7 % but igea at 1500 +12.6 % and +5.5 %;
+/// 1, 2, 4 +3.8 %; this +4.0 % (igea, N = 6 at 1500), with one pass fewer on the bunny. Before the reach and
+/// per-face weights, with 2 rings in up to 4 passes, 4 of the 72 were 5–13 % above (with 1, 4
+/// or 8 rings in the first pass more).
+const CONFORMAL_RINGS: [usize; 9] = [2, 4, 1, 2, 4, 1, 2, 4, 1];
+/// The distinct widths of [`CONFORMAL_RINGS`]: that many passes not kept in a row end it.
+const WIDTHS: usize = 3;
 /// Rings around the faces the repair changed within which [`relax_conformal`] takes faces
 /// above the level as seeds, changed or not: where the repair had to leave a singularity's fan
 /// more distorted (a branch point parted from another by re-rounding), the faces of the
@@ -1194,8 +1199,8 @@ impl Regions<'_> {
 /// winding kept and every region only when its energy decreased; in passes of
 /// [`CONFORMAL_RINGS`] rings around the faces still above the level, each kept only when the
 /// 99th percentile falls and no vertex more is wound wrongly, until the map's 99th percentile
-/// is at or below the level (the bunny: 2 passes of 6, the repair 134–152 → 118–128 ms; at
-/// 1.1 M faces all 6). The repair's own relaxation aims at the frames, which are
+/// is at or below the level (the bunny: 1 pass, the repair 134–152 → 117–130 ms; at 1.1 M
+/// faces 2.7 → 3.1 s). The repair's own relaxation aims at the frames, which are
 /// anisotropic next to singularities; this one at the conformal distortion the report
 /// measures (72 cases: p99 more than 5 % above the global step's map in 18 → 0,
 /// docs/untangling.md). `uv` has no fold; `miswound_now` are its mis-wound vertices
@@ -1261,12 +1266,13 @@ pub(crate) fn relax_conformal(
     let mut relaxed = uv.to_vec();
     let mut p99 = super::metrics::conformal_p99(&jac);
     let mut after = miswound_now.to_vec();
-    // (a pass not kept leaves the map as it was: after one of each width, nothing more; the
+    // (a pass not kept leaves the map as it was: after one of each width in a row, nothing
+    // more; the
     // first pass runs even when the repaired map's p99 is at the level already, as the faces
     // above it are where the repair left its distortion)
     let mut not_kept = 0;
     for (pass, rings) in CONFORMAL_RINGS.into_iter().enumerate() {
-        if (pass > 0 && p99 <= level) || not_kept == 2 || cancel() {
+        if (pass > 0 && p99 <= level) || not_kept == WIDTHS || cancel() {
             break;
         }
         let seeds: Vec<usize> = (0..mesh.n_faces())
