@@ -119,9 +119,9 @@ const RELAX_RINGS: usize = 8;
 /// 2.99 with 2 and 4, 3.17 with 4 and 8, 2.76 with 1 and 2, 2.70 with 2, 4 and 1 (its global
 /// step's map 2.65). Over the 72 cases of `tests/untangle.rs` and igea's 8 (2026-12-06), worst
 /// p99 against the global step's map: 2, 4 in turn +3.7 % but igea at 1500 +12.6 % and +5.5 %;
-/// 1, 2, 4 +3.8 %; this +4.0 % (igea, N = 6 at 1500), with one pass fewer on the bunny. Before the reach and
-/// per-face weights, with 2 rings in up to 4 passes, 4 of the 72 were 5–13 % above (with 1, 4
-/// or 8 rings in the first pass more).
+/// 1, 2, 4 +3.8 %; this +4.0 % (igea, N = 6 at 1500), with one pass fewer on the bunny.
+/// Before the reach and per-face weights, with 2 rings in up to 4 passes, 4 of the 72 were
+/// 5–13 % above (with 1, 4 or 8 rings in the first pass more).
 const CONFORMAL_RINGS: [usize; 9] = [2, 4, 1, 2, 4, 1, 2, 4, 1];
 /// The distinct widths of [`CONFORMAL_RINGS`]: that many passes not kept in a row end it.
 const WIDTHS: usize = 3;
@@ -1199,7 +1199,7 @@ impl Regions<'_> {
 /// winding kept and every region only when its energy decreased; in passes of
 /// [`CONFORMAL_RINGS`] rings around the faces still above the level, each kept only when the
 /// 99th percentile falls and no vertex more is wound wrongly, until the map's 99th percentile
-/// is at or below the level (the bunny: 1 pass, the repair 134–152 → 117–130 ms; at 1.1 M
+/// is at or below the level (the bunny: 1 pass, the repair 134–152 → 117–129 ms; at 1.1 M
 /// faces 2.7 → 3.1 s). The repair's own relaxation aims at the frames, which are
 /// anisotropic next to singularities; this one at the conformal distortion the report
 /// measures (72 cases: p99 more than 5 % above the global step's map in 18 → 0,
@@ -1262,7 +1262,7 @@ pub(crate) fn relax_conformal(
     };
     // Passes, each seeded where the last left faces above the level and kept only when the
     // 99th percentile falls and no vertex more is wound wrongly; a pass not kept leaves the
-    // next one, of the other width, to try.
+    // next one, of another width, to try.
     let mut relaxed = uv.to_vec();
     let mut p99 = super::metrics::conformal_p99(&jac);
     let mut after = miswound_now.to_vec();
