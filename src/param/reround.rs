@@ -290,9 +290,14 @@ impl QuadCover {
         cancel: CancelCheck<'_>,
     ) -> Result<(), ParamError> {
         let mut known = Responses::new();
-        for _ in 0..WINDING_ROUNDS {
+        // The state before a sideways step (below), restored when no later round gets below
+        // its count.
+        let mut before_sideways: Option<(usize, Gaps, Vec<[f64; 2]>, usize)> = None;
+        // (a sideways step gives one round more)
+        for round in 0..=WINDING_ROUNDS {
             let wrong = untangle::miswound(mesh, uv, cones);
-            if wrong.is_empty()
+            if (round == WINDING_ROUNDS && before_sideways.is_none())
+                || wrong.is_empty()
                 || wrong.len() > WINDING_MAX_VERTICES
                 || !untangle::folded(uv).is_empty()
                 || cancel()
@@ -352,6 +357,9 @@ impl QuadCover {
             };
             let p99_now = p99(uv);
             let mut kept = false;
+            // The last pair parted at the cost of as many other wrongly wound vertices: taken
+            // once, when no try leaves fewer, for the next round to part those.
+            let mut sideways: Option<(Gaps, Vec<[f64; 2]>, usize)> = None;
             let tries = if wrong.len() <= WINDING_LAST {
                 ranked.len()
             } else {
@@ -368,20 +376,43 @@ impl QuadCover {
                     .collect();
                 let mut r = self.untangle(mesh, local, &space, Some(cones), &mut u, cancel);
                 self.rewind_left(mesh, local, &space, cones, &mut u, &mut r, cancel);
-                if untangle::folded(&u).is_empty()
-                    && untangle::miswound(mesh, &u, cones).len() < wrong.len()
-                    && p99(&u) <= WINDING_P99_SLACK * p99_now
-                {
+                if !(untangle::folded(&u).is_empty() && p99(&u) <= WINDING_P99_SLACK * p99_now) {
+                    continue;
+                }
+                let now = untangle::miswound(mesh, &u, cones);
+                if now.len() < wrong.len() {
                     *gaps = g;
                     *uv = u;
                     repair.rewound += r.rewound;
                     kept = true;
                     break;
                 }
+                if sideways.is_none()
+                    && before_sideways.is_none()
+                    && wrong.len() <= WINDING_LAST
+                    && now.len() == wrong.len()
+                    && now.iter().all(|v| wrong.binary_search(v).is_err())
+                {
+                    sideways = Some((g, u, r.rewound));
+                }
+            }
+            if !kept && let Some((g, u, rewound)) = sideways {
+                before_sideways = Some((wrong.len(), gaps.clone(), uv.clone(), repair.rewound));
+                *gaps = g;
+                *uv = u;
+                repair.rewound += rewound;
+                kept = true;
             }
             if !kept {
                 break;
             }
+        }
+        if let Some((count, g, u, rewound)) = before_sideways
+            && untangle::miswound(mesh, uv, cones).len() >= count
+        {
+            *gaps = g;
+            *uv = u;
+            repair.rewound = rewound;
         }
         Ok(())
     }
