@@ -275,9 +275,12 @@ impl QuadCover {
     /// plus the change of the global map they give, within [`WINDING_RANK_RINGS`] rings of the
     /// wrongly wound vertices (wrongly wound vertices, folds, rounding error), and the best
     /// [`REROUND_TRIES`] (every one for the last [`WINDING_LAST`]) are repaired from there
-    /// (rewinding included). The first
-    /// that leaves no fold and fewer wrongly wound vertices is kept; rounds go on until none is
-    /// left or nothing helps. Runs only for a few such vertices ([`WINDING_MAX_VERTICES`]).
+    /// (rewinding included). The first that leaves no fold and fewer wrongly wound vertices is
+    /// kept; rounds go on until none is left or nothing helps. For the last pair, when nothing
+    /// leaves fewer, one try whose wrongly wound vertices are all new is taken once (the pair
+    /// parted at the cost of others), with a round more; the state before it comes back
+    /// unless a later round gets below its count (igea, N = 4: 1 patched place → 0). Runs only
+    /// for a few such vertices ([`WINDING_MAX_VERTICES`]).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn reround_windings(
         &self,
