@@ -1229,15 +1229,32 @@ pub(crate) fn relax_conformal(
     let moved = |c: usize| moved_in(uv, c);
     let level = level
         .unwrap_or_else(|| super::metrics::conformal_p99(&super::metrics::jacobians(mesh, global)));
-    // The reach: the vertices within CONFORMAL_REACH rings of the faces the repair changed.
-    let changed: Vec<usize> = (0..mesh.n_faces())
-        .into_par_iter()
-        .filter(|&f| (0..3).any(|a| moved(3 * f + a)))
-        .flat_map_iter(|f| mesh.face(f))
-        .collect();
+    // The reach: the vertices within CONFORMAL_REACH rings of the faces the repair changed
+    // (marked in place: a set of the vertices cost 0.14 s at 1.1 M faces).
     let mut near = vec![false; mesh.n_vertices()];
-    for v in vertices_within(mesh, &changed, CONFORMAL_REACH) {
-        near[v] = true;
+    let mut front = Vec::new();
+    for f in 0..mesh.n_faces() {
+        if (0..3).any(|a| moved(3 * f + a)) {
+            for v in mesh.face(f) {
+                if !near[v] {
+                    near[v] = true;
+                    front.push(v);
+                }
+            }
+        }
+    }
+    for _ in 0..CONFORMAL_REACH {
+        let mut next = Vec::new();
+        for &v in &front {
+            for h in mesh.outgoing(v) {
+                let w = mesh.to(h);
+                if !near[w] {
+                    near[w] = true;
+                    next.push(w);
+                }
+            }
+        }
+        front = next;
     }
     let within = |f: usize| mesh.face(f).iter().any(|&v| near[v]);
     let above = |j: &(f64, f64, f64)| !(j.1 <= level * j.2);
