@@ -967,6 +967,79 @@ fn an_l_shaped_prism_with_six_fold_symmetry_does_not_fold() {
     assert!(share > 0.99, "{share}");
 }
 
+/// Thin L- and U-shaped plates (0.4 thick) with features at 40°, N = 6, meshed isotropically
+/// at 1500–6000 vertices. No corner of such a part has a lattice corner of 90°: the design put
+/// the ±1/6 each corner asks for one edge along a crease beside it, where the crease's line
+/// turned in the flat (2026-12-06: 2–7 folded faces after the repair, 9–36 patched places in the
+/// remesh, in each of these four). Moved onto the corners (`Base::onto_junctions`), the map is
+/// fold-free and the remesh patches at most a pleat.
+#[test]
+fn singularities_beside_prism_corners_move_onto_them() {
+    let l: (&[(f64, f64)], &[[u32; 3]]) = (
+        &[
+            (0.0, 0.0),
+            (4.0, 0.0),
+            (4.0, 2.0),
+            (2.0, 2.0),
+            (2.0, 4.0),
+            (0.0, 4.0),
+        ],
+        &[[0, 1, 2], [0, 2, 3], [0, 3, 5], [3, 4, 5]],
+    );
+    let u: (&[(f64, f64)], &[[u32; 3]]) = (
+        &[
+            (0.0, 0.0),
+            (4.0, 0.0),
+            (4.0, 4.0),
+            (3.0, 4.0),
+            (3.0, 1.0),
+            (1.0, 1.0),
+            (1.0, 4.0),
+            (0.0, 4.0),
+        ],
+        &[
+            [0, 1, 4],
+            [1, 2, 3],
+            [1, 3, 4],
+            [0, 4, 5],
+            [0, 5, 6],
+            [0, 6, 7],
+        ],
+    );
+    let settings = Settings {
+        symmetry: 6,
+        ..Settings::default()
+    };
+    for (name, (polygon, cap), vertices) in [
+        ("L", l, 3000),
+        ("L", l, 6000),
+        ("U", u, 1500),
+        ("U", u, 6000),
+    ] {
+        let what = format!("{name} plate at {vertices} vertices, N = 6");
+        let mesh = extruded(polygon, cap, 0.4, vertices);
+        let base = Base::for_mesh(mesh.clone(), settings.clone()).unwrap();
+        let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
+        check_geometric(&base, &state, &solved);
+        let p = &solved.param;
+        eprintln!(
+            "{what}: {} folds before the repair, {} after, {} singularities",
+            p.flipped_faces_before_repair,
+            p.flipped_faces,
+            p.singularities.len()
+        );
+        assert_eq!(p.flipped_faces, 0, "{what}");
+        let (remesh, share, _) = remesh_along_curves(&base, &state, &solved, &what);
+        remesh_checks::assert_manifold(&remesh, &what);
+        assert!(
+            remesh.patched_places <= 2,
+            "{what}: {}",
+            remesh.patched_places
+        );
+        assert!(share > 0.99, "{what}: {share}");
+    }
+}
+
 /// The bunny with its boundary aligned and the field renormalized (`renormalize_field`): two
 /// boundary corners one edge apart, held by parallel lines of a short run that the rounding put
 /// on one value, folded their face (1 fold left, 2026-12-03); the re-rounding under curves now

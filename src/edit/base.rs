@@ -31,6 +31,14 @@ const APEX_CLUSTER: f64 = 3.0;
 /// in grid cells (`constraint::acute_corners`).
 const CORNER_REACH: f64 = 1.0;
 
+/// How much farther (in units of 2π/N) from a junction's cone a singularity of the other sign
+/// may take the junction's index and still move onto it ([`Base::onto_junctions`]): ties
+/// only. A concave prism corner (defect −90°, N = 6: −1.5) with −1/3 on it and a +1/6 beside
+/// it is a tie (0.5 either way); moved, the L-shaped prism with features at 40° has 29
+/// singularities instead of 30, the plate with a square hole 30 instead of 34, a thick L 0
+/// mis-wound vertices instead of 2 (none folds either way).
+const JUNCTION_TIE: f64 = 0.1;
+
 /// The combinatorial state after some edits: integer turns and released faces. The
 /// singularities follow from the turns alone ([`turn_index`]).
 #[derive(Clone, Debug, PartialEq)]
@@ -642,7 +650,78 @@ impl Base {
                 state = self.commit(&state, &mv);
             }
         }
+        let state = self.onto_junctions(state, &acute.apexes);
         self.off_curves_in_wedges(state, acute, radius)
+    }
+
+    /// Singularities the design leaves on a curve one edge from a junction (an interior
+    /// vertex where three or more curve edges meet: a prism's corner, where two creases and
+    /// the cap's edge meet) move onto the junction. The junction is a lattice point (lines of
+    /// two families cross there), and on a part with flat faces it is where the surface's
+    /// curvature is: a 90° corner's 270° cone is the +1/4 (N = 4) the apex carries. With
+    /// N = 6 no lattice corner is 90°; the design put the +1/6 or −1/6 the corner asks for
+    /// beside the apex instead, on one of its creases, whose line then turns where the part is
+    /// flat (an L-shaped prism with features at 40°: each of its 12 corners with a singularity
+    /// one edge off, 39 folded faces after the repair and 164 patched places in the remesh;
+    /// moved onto the corners: none). A singularity moves unless it would carry the junction's
+    /// index away from the corner's cone, its angle defect in units of 2π/N: one of the
+    /// defect's sign always moves (a 90° corner with +1/3 and a +1/6 beside it becomes a +1/2,
+    /// three lattice corners of 60°), one of the other sign only if the junction's index then
+    /// lies no farther from the defect, ties within [`JUNCTION_TIE`] (on fandisk a +1/6 beside
+    /// a corner with −1/6 whose defect is −1.33 stays: moved, the corner's index 0, 11 faces
+    /// there folded). Acute apexes are left to [`Self::off_curves_in_wedges`]: their wedge's
+    /// singularity belongs inside it. Not with N = 2 (see [`Self::snap_to_curves`]).
+    fn onto_junctions(&self, mut state: EditState, acute_apexes: &[usize]) -> EditState {
+        if self.settings.symmetry == 2 {
+            return state;
+        }
+        let curve_edge = self.geometric_curve_edges(&state);
+        let curve_degree = self.curve_degrees(&curve_edge);
+        let n = self.settings.symmetry as f64;
+        let mut search = PathSearch::new(self.mesh.n_vertices());
+        for j in 0..self.mesh.n_vertices() {
+            if curve_degree[j] < 3
+                || self.mesh.is_boundary_vertex(j)
+                || acute_apexes.binary_search(&j).is_ok()
+            {
+                continue;
+            }
+            let cone = self.defects[j] / std::f64::consts::TAU * n;
+            let beside: Vec<usize> = self
+                .mesh
+                .outgoing(j)
+                .filter(|&h| curve_edge[self.mesh.edge(h)])
+                .map(|h| self.mesh.to(h))
+                .filter(|&p| curve_degree[p] == 2 && !self.mesh.is_boundary_vertex(p))
+                .collect();
+            for p in beside {
+                let Some(&k) = state.singularities.get(&p) else {
+                    continue;
+                };
+                let at_j = state.singularities.get(&j).copied().unwrap_or(0);
+                let same_sign = k as f64 * cone > 0.0;
+                let no_farther = (f64::from(at_j + k) - cone).abs()
+                    <= (f64::from(at_j) - cone).abs() + JUNCTION_TIE;
+                if !same_sign && !no_farther {
+                    continue;
+                }
+                if let Ok(mv) = self.plan(&state, &mut search, p, j) {
+                    state = self.commit(&state, &mv);
+                }
+            }
+        }
+        state
+    }
+
+    /// How many of the `curve_edge` edges meet at each vertex: 0 off the curves, 2 inside one.
+    fn curve_degrees(&self, curve_edge: &[bool]) -> Vec<u32> {
+        let mut degree = vec![0u32; self.mesh.n_vertices()];
+        for (e, _) in curve_edge.iter().enumerate().filter(|(_, on)| **on) {
+            for v in self.mesh.edge_vertices(e) {
+                degree[v] += 1;
+            }
+        }
+        degree
     }
 
     /// Singularities the design puts on a curve beside the apex of an acute corner move off the
@@ -668,13 +747,7 @@ impl Base {
             return state;
         }
         let curve_edge = self.geometric_curve_edges(&state);
-        // How many curve edges meet at each vertex: 0 off the curves, 2 inside one.
-        let mut curve_degree = vec![0u32; self.mesh.n_vertices()];
-        for (e, _) in curve_edge.iter().enumerate().filter(|(_, on)| **on) {
-            for v in self.mesh.edge_vertices(e) {
-                curve_degree[v] += 1;
-            }
-        }
+        let curve_degree = self.curve_degrees(&curve_edge);
         let reach = APEX_CLUSTER * radius;
         let mut search = PathSearch::new(self.mesh.n_vertices());
         for (apex, wedge) in &acute.wedges {
