@@ -9,13 +9,12 @@ use std::collections::HashMap;
 /// Fills interior hole loops of a polygon mesh in place; returns how many were filled.
 /// `on_input_boundary[v]` marks output vertices that lie on the input's boundary. A loop is
 /// filled when none of its vertices does, it does not pass a vertex twice, and it has at least 3
-/// and at most `max_sides` vertices. Two holes touching at a vertex are told apart there: a
-/// hole's boundary leaves the vertex through the other face fan than the one it arrived by.
-pub fn fill_holes(
-    faces: &mut Vec<Vec<u32>>,
-    on_input_boundary: &[bool],
-    max_sides: usize,
-) -> usize {
+/// vertices, however many (a fold's hole on fandisk, N = 6, features at 60°, had 46 sides; left
+/// open under the longest face extraction closes, 32, the remesh's Euler characteristic was 1
+/// instead of 2; `purify` makes the polygon pure). Two holes touching at a vertex are told apart
+/// there: a hole's boundary leaves the vertex through the other face fan than the one it
+/// arrived by.
+pub fn fill_holes(faces: &mut Vec<Vec<u32>>, on_input_boundary: &[bool]) -> usize {
     // Directed edge -> (face, corner of its start), and how often it is used.
     let mut at: HashMap<(u32, u32), (usize, usize)> = HashMap::new();
     let mut count: HashMap<(u32, u32), usize> = HashMap::new();
@@ -77,7 +76,7 @@ pub fn fill_holes(
             if next == start {
                 break;
             }
-            if used.contains_key(&next) || lp.len() >= max_sides {
+            if used.contains_key(&next) {
                 ok = false;
                 break;
             }
@@ -214,12 +213,31 @@ mod tests {
     fn hole_in_a_grid_is_filled_and_outer_boundary_kept() {
         let mut on_boundary = Vec::new();
         let mut faces = grid_without(&[(1, 1)], &mut on_boundary);
-        assert_eq!(fill_holes(&mut faces, &on_boundary, 32), 1);
+        assert_eq!(fill_holes(&mut faces, &on_boundary), 1);
         assert_eq!(faces.len(), 16);
         let f = faces.last().unwrap();
         let k = f.iter().position(|&v| v == 6).unwrap();
         assert_eq!((f.len(), f[(k + 1) % 4]), (4, 7));
-        assert_eq!(fill_holes(&mut faces, &on_boundary, 32), 0);
+        assert_eq!(fill_holes(&mut faces, &on_boundary), 0);
+    }
+
+    /// A hole of 36 sides (9 × 9 cells missing from a 12 × 12 grid) is one polygon too.
+    #[test]
+    fn a_long_hole_is_filled() {
+        let id = |i: u32, j: u32| j * 13 + i;
+        let mut faces = Vec::new();
+        for j in 0..12 {
+            for i in 0..12 {
+                if !((2..11).contains(&i) && (2..11).contains(&j)) {
+                    faces.push(vec![id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]);
+                }
+            }
+        }
+        let on_boundary: Vec<bool> = (0..169)
+            .map(|v| v % 13 == 0 || v % 13 == 12 || !(13..156).contains(&v))
+            .collect();
+        assert_eq!(fill_holes(&mut faces, &on_boundary), 1);
+        assert_eq!(faces.last().map(Vec::len), Some(36));
     }
 
     /// Two holes touching diagonally at vertex 12 (a figure-8 boundary): both are filled.
@@ -227,7 +245,7 @@ mod tests {
     fn holes_touching_at_a_vertex_are_filled_separately() {
         let mut on_boundary = Vec::new();
         let mut faces = grid_without(&[(1, 1), (2, 2)], &mut on_boundary);
-        assert_eq!(fill_holes(&mut faces, &on_boundary, 32), 2);
+        assert_eq!(fill_holes(&mut faces, &on_boundary), 2);
         assert_eq!(faces.len(), 16);
         assert!(faces[14..].iter().all(|f| f.len() == 4 && f.contains(&12)));
     }
@@ -273,10 +291,10 @@ mod tests {
         on_boundary.resize(27, false);
         faces.push(vec![6, 25, 26]);
         let grid = faces.len() - 1;
-        assert_eq!(fill_holes(&mut faces, &on_boundary, 32), 0);
+        assert_eq!(fill_holes(&mut faces, &on_boundary), 0);
         assert_eq!(drop_stray_faces(&mut faces, &on_boundary), 1);
         assert_eq!(faces.len(), grid);
-        assert_eq!(fill_holes(&mut faces, &on_boundary, 32), 1);
+        assert_eq!(fill_holes(&mut faces, &on_boundary), 1);
         // A lone quad on the input boundary (a small part of its own) stays.
         let mut lone = vec![vec![0, 1, 2, 3]];
         assert_eq!(drop_stray_faces(&mut lone, &[true; 4]), 0);

@@ -668,7 +668,7 @@ pub fn extract_grid(p: &Param, opts: &ExtractOptions) -> Remesh {
     // Fragments of a fold standing alone in a hole would keep it from being filled.
     patched += fill::drop_stray_faces(&mut faces, &on_boundary);
     // Patch the holes left by faces that could not be closed (their count is in `patched`).
-    fill::fill_holes(&mut faces, &on_boundary, opts.max_face_sides);
+    fill::fill_holes(&mut faces, &on_boundary);
     // Compact.
     let mut map = vec![NONE; np];
     let mut positions = Vec::new();
