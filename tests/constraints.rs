@@ -1065,6 +1065,39 @@ fn renormalized_aligned_bunny_has_no_fold() {
     assert_eq!(solved.param.flipped_faces, 0);
 }
 
+/// Aligned boundaries leave a few branch points wound wrongly (a −1/4 whose fan turns 90°
+/// instead of 450°, beside a vertex that took its turn), each a patched place in the remesh:
+/// the cerebral vessels at the default density, N = 4, 4 of them and 2 patched places; camelhead,
+/// N = 6, 4 and 1 (2026-12-06). The windings re-rounding under curves
+/// (`reround_curve_windings`) parts them with gap and curve-value steps that keep the curves'
+/// equations: no wrongly wound vertex, no patched place, the boundary still on its lines.
+#[test]
+fn aligned_boundaries_leave_no_wrongly_wound_vertex() {
+    for (name, n) in [("cerebral-vessels.obj", 4), ("camelhead.obj", 6)] {
+        let Some(path) = shared(name) else {
+            return;
+        };
+        let settings = Settings {
+            symmetry: n,
+            ..Settings::default()
+        };
+        let base = base_for(&path, settings);
+        let (state, solved) = replay_solve(&base, &[Edit::AlignBoundary { on: true }]);
+        check_geometric(&base, &state, &solved);
+        let p = &solved.param;
+        eprintln!(
+            "{name} aligned, N = {n}: {} flipped faces, wrongly wound {:?}, re-rounded gaps {}",
+            p.flipped_faces,
+            p.miswound,
+            p.rerounded_gaps.len()
+        );
+        assert_eq!(p.flipped_faces, 0, "{name}");
+        assert!(p.miswound.is_empty(), "{name}: {:?}", p.miswound);
+        let (remesh, _, _) = remesh_along_curves(&base, &state, &solved, name);
+        assert_eq!(remesh.patched_places, 0, "{name}");
+    }
+}
+
 /// A raw CAD tessellation (`generate::raw_cylinder`: the side one row of needles, the caps fans
 /// from a rim vertex, as an STL exporter writes a cylinder) with features on. As it is, the caps
 /// have no interior vertex for their singularities and the smoothing has no uniform sampling to

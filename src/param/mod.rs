@@ -1245,6 +1245,7 @@ impl QuadCover {
             },
         );
         let mut w = rounded?;
+        let first_gaps = traced.gaps(&w);
         let step = step.map_err(|e| traced.name_failure(e))?;
         let (mut uv, space) = self
             .curve_map(mesh, &local, &traced, step.as_ref(), &w)
@@ -1279,6 +1280,25 @@ impl QuadCover {
             self.curve_map(mesh, &local, &traced, step.as_ref(), &w)?.1
         };
         self.rewind_left(mesh, &local, &space, &cones, &mut uv, &mut repair, cancel);
+        if !self.opts.no_untangle {
+            let t = Instant::now();
+            let before = w.clone();
+            self.reround_curve_windings(
+                mesh,
+                &local,
+                &traced,
+                step.as_ref(),
+                &cones,
+                &mut w,
+                &mut uv,
+                &mut repair,
+                cancel,
+            )?;
+            if w != before {
+                rerounded = reround::changed(&first_gaps, &traced.gaps(&w));
+            }
+            repair.ms += ms(t);
+        }
         if cancel() {
             return Err(ParamError::Cancelled);
         }

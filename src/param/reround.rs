@@ -2,7 +2,8 @@
 //! step near the folds, the best candidates repaired again. Without curves any gap may move
 //! ([`QuadCover::reround`]); under constraint curves only steps that keep the combinatorial
 //! equations C_c w = 0 (eq. 4.8, 4.9) and the geometric curves on their lines
-//! ([`QuadCover::reround_curves`]).
+//! ([`QuadCover::reround_curves`]). The same for vertices a fold-free map winds wrongly
+//! ([`QuadCover::reround_windings`], [`QuadCover::reround_curve_windings`]).
 
 use super::CancelCheck;
 use super::constrained::{self, ConstrainedStep};
@@ -612,6 +613,142 @@ impl QuadCover {
             }
         }
         Ok(changed(&first, &traced.gaps(w)))
+    }
+}
+
+impl QuadCover {
+    /// [`Self::reround_windings`] under constraint curves: vertices the final, fold-free map
+    /// still winds wrongly, after the rewinding. A gap their corners depend on, or a curve
+    /// value whose line holds them, moves by one lattice step, the other curve values (and
+    /// gaps only if they must) following so that C_c w = 0 still holds ([`Traced::stepped`]);
+    /// the geometric curves stay on their lines. Candidates are ranked by the repaired map
+    /// moved by the step (wrongly wound vertices, then folds, within [`WINDING_RANK_RINGS`]
+    /// rings), the best [`REROUND_TRIES`] (every one for the last [`WINDING_LAST`]) repaired
+    /// and rewound, and the first with no fold, fewer wrongly wound vertices and a p99 within
+    /// [`WINDING_P99_SLACK`] is kept; rounds go on while one helps. Only for a few
+    /// (`crowded::FEW_MISWOUND`; more call for a finer try first). The cerebral vessels with
+    /// their boundary aligned, N = 4: 4 wrongly wound vertices (two −1/4 whose fans turn 90°
+    /// instead of 450°, each beside a vertex that took its turn) and 2 patched places → none.
+    /// Updates the unknowns `w`, the map and the repair's rewound count.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn reround_curve_windings(
+        &self,
+        mesh: &TriMesh,
+        local: &LocalSolution,
+        traced: &Traced,
+        factored: Option<&ConstrainedStep>,
+        cones: &[f64],
+        w: &mut Vec<f64>,
+        uv: &mut Vec<[f64; 2]>,
+        repair: &mut untangle::Repair,
+        cancel: CancelCheck<'_>,
+    ) -> Result<(), ParamError> {
+        // More than a few are a crowded cluster, which a finer try takes first
+        // (`crowded::FEW_MISWOUND`; parted here first, camelhead aligned at 1500 vertices,
+        // N = 4, kept its first map with 2 instead of a finer one with none).
+        if mesh.n_faces() > WINDING_MAX_FACES
+            || untangle::miswound(mesh, uv, cones).len() > super::crowded::FEW_MISWOUND
+        {
+            return Ok(());
+        }
+        let p99 =
+            |uv: &[[f64; 2]]| super::metrics::conformal_p99(&super::metrics::jacobians(mesh, uv));
+        for _ in 0..WINDING_ROUNDS {
+            let wrong = untangle::miswound(mesh, uv, cones);
+            if wrong.is_empty()
+                || wrong.len() > WINDING_MAX_VERTICES
+                || !untangle::folded(uv).is_empty()
+                || cancel()
+            {
+                break;
+            }
+            let pairs = collided(mesh, uv, cones, &wrong);
+            let corners = pairs
+                .iter()
+                .flat_map(|&(b, s)| [b, s])
+                .chain(wrong.iter().flat_map(|&v| mesh.outgoing(v)));
+            let mut seen = std::collections::HashSet::new();
+            let unknowns: Vec<usize> = self
+                .gaps_of_corners(corners)
+                .into_iter()
+                .flat_map(|k| [2 * k, 2 * k + 1])
+                .chain(wrong.iter().flat_map(|&v| traced.value_unknowns_at(v)))
+                .filter(|k| seen.insert(*k))
+                .collect();
+            let near = untangle::vertices_within(mesh, &wrong, WINDING_RANK_RINGS);
+            let near_faces = untangle::faces_around(mesh, &near);
+            let (base, _) = self.curve_map(mesh, local, traced, factored, w)?;
+            type Ranked = ((usize, usize), Vec<f64>, Vec<[f64; 2]>, untangle::MapSpace);
+            let mut ranked: Vec<Ranked> = Vec::new();
+            for k in unknowns {
+                for step in [-1.0, 1.0] {
+                    let Some(w2) = traced.stepped(w, k, step) else {
+                        continue;
+                    };
+                    if cancel() {
+                        return Ok(());
+                    }
+                    let (fresh, space) = self.curve_map(mesh, local, traced, factored, &w2)?;
+                    // The repaired map moved by the step, where it matters.
+                    let at = |c: usize| -> [f64; 2] {
+                        std::array::from_fn(|a| uv[c][a] + fresh[c][a] - base[c][a])
+                    };
+                    let wound = near
+                        .iter()
+                        .filter(|&&v| {
+                            !mesh.is_boundary_vertex(v)
+                                && !cones[v].is_nan()
+                                && !untangle::wound_by(
+                                    untangle::fan_turn_with(mesh, v, at),
+                                    cones[v],
+                                )
+                        })
+                        .count();
+                    let folds = near_faces
+                        .iter()
+                        .filter(|&&f| {
+                            let q: [[f64; 2]; 3] = std::array::from_fn(|a| at(3 * f + a));
+                            let area = (q[1][0] - q[0][0]) * (q[2][1] - q[0][1])
+                                - (q[1][1] - q[0][1]) * (q[2][0] - q[0][0]);
+                            area.is_nan() || area <= 0.0
+                        })
+                        .count();
+                    ranked.push(((wound, folds), w2, fresh, space));
+                }
+            }
+            ranked.sort_by_key(|r| r.0);
+            let tries = if wrong.len() <= WINDING_LAST {
+                ranked.len()
+            } else {
+                REROUND_TRIES
+            };
+            let p99_now = p99(uv);
+            let mut kept = false;
+            for (_, w2, fresh, space) in ranked.into_iter().take(tries) {
+                if cancel() {
+                    break;
+                }
+                let mut u: Vec<[f64; 2]> = (0..uv.len())
+                    .map(|c| std::array::from_fn(|a| uv[c][a] + fresh[c][a] - base[c][a]))
+                    .collect();
+                let mut r = self.untangle(mesh, local, &space, Some(cones), &mut u, cancel);
+                self.rewind_left(mesh, local, &space, cones, &mut u, &mut r, cancel);
+                if !(untangle::folded(&u).is_empty() && p99(&u) <= WINDING_P99_SLACK * p99_now) {
+                    continue;
+                }
+                if untangle::miswound(mesh, &u, cones).len() < wrong.len() {
+                    *w = w2;
+                    *uv = u;
+                    repair.rewound += r.rewound;
+                    kept = true;
+                    break;
+                }
+            }
+            if !kept {
+                break;
+            }
+        }
+        Ok(())
     }
 }
 
