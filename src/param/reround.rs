@@ -330,26 +330,7 @@ impl QuadCover {
                         let d = shift(c);
                         [uv[c][0] + d[0], uv[c][1] + d[1]]
                     };
-                    let wound = near
-                        .iter()
-                        .filter(|&&v| {
-                            !mesh.is_boundary_vertex(v)
-                                && !cones[v].is_nan()
-                                && !untangle::wound_by(
-                                    untangle::fan_turn_with(mesh, v, at),
-                                    cones[v],
-                                )
-                        })
-                        .count();
-                    let folds = near_faces
-                        .iter()
-                        .filter(|&&f| {
-                            let q: [[f64; 2]; 3] = std::array::from_fn(|a| at(3 * f + a));
-                            let area = (q[1][0] - q[0][0]) * (q[2][1] - q[0][1])
-                                - (q[1][1] - q[0][1]) * (q[2][0] - q[0][0]);
-                            area.is_nan() || area <= 0.0
-                        })
-                        .count();
+                    let (wound, folds) = wound_and_folded(mesh, cones, &near, &near_faces, at);
                     let together = pairs
                         .iter()
                         .filter(|&&(b, s)| coincident(at(b), at(s)))
@@ -678,8 +659,9 @@ impl QuadCover {
             let near = untangle::vertices_within(mesh, &wrong, WINDING_RANK_RINGS);
             let near_faces = untangle::faces_around(mesh, &near);
             let (base, _) = self.curve_map(mesh, local, traced, factored, w)?;
-            type Ranked = ((usize, usize), Vec<f64>, Vec<[f64; 2]>, untangle::MapSpace);
-            let mut ranked: Vec<Ranked> = Vec::new();
+            // Scores and steps only: the maps (one per corner each) are solved again for the
+            // few tried.
+            let mut ranked: Vec<((usize, usize), Vec<f64>)> = Vec::new();
             for k in unknowns {
                 for step in [-1.0, 1.0] {
                     let Some(w2) = traced.stepped(w, k, step) else {
@@ -688,32 +670,12 @@ impl QuadCover {
                     if cancel() {
                         return Ok(());
                     }
-                    let (fresh, space) = self.curve_map(mesh, local, traced, factored, &w2)?;
+                    let (fresh, _) = self.curve_map(mesh, local, traced, factored, &w2)?;
                     // The repaired map moved by the step, where it matters.
                     let at = |c: usize| -> [f64; 2] {
                         std::array::from_fn(|a| uv[c][a] + fresh[c][a] - base[c][a])
                     };
-                    let wound = near
-                        .iter()
-                        .filter(|&&v| {
-                            !mesh.is_boundary_vertex(v)
-                                && !cones[v].is_nan()
-                                && !untangle::wound_by(
-                                    untangle::fan_turn_with(mesh, v, at),
-                                    cones[v],
-                                )
-                        })
-                        .count();
-                    let folds = near_faces
-                        .iter()
-                        .filter(|&&f| {
-                            let q: [[f64; 2]; 3] = std::array::from_fn(|a| at(3 * f + a));
-                            let area = (q[1][0] - q[0][0]) * (q[2][1] - q[0][1])
-                                - (q[1][1] - q[0][1]) * (q[2][0] - q[0][0]);
-                            area.is_nan() || area <= 0.0
-                        })
-                        .count();
-                    ranked.push(((wound, folds), w2, fresh, space));
+                    ranked.push((wound_and_folded(mesh, cones, &near, &near_faces, at), w2));
                 }
             }
             ranked.sort_by_key(|r| r.0);
@@ -724,10 +686,11 @@ impl QuadCover {
             };
             let p99_now = p99(uv);
             let mut kept = false;
-            for (_, w2, fresh, space) in ranked.into_iter().take(tries) {
+            for (_, w2) in ranked.into_iter().take(tries) {
                 if cancel() {
                     break;
                 }
+                let (fresh, space) = self.curve_map(mesh, local, traced, factored, &w2)?;
                 let mut u: Vec<[f64; 2]> = (0..uv.len())
                     .map(|c| std::array::from_fn(|a| uv[c][a] + fresh[c][a] - base[c][a]))
                     .collect();
@@ -750,6 +713,36 @@ impl QuadCover {
         }
         Ok(())
     }
+}
+
+/// A candidate step's moved map `at` (corner → point) scored around the wrongly wound
+/// vertices: the vertices of `near` it winds wrongly, and the faces of `near_faces` it folds
+/// (the ranking of [`QuadCover::reround_windings`] and [`QuadCover::reround_curve_windings`]).
+fn wound_and_folded(
+    mesh: &TriMesh,
+    cones: &[f64],
+    near: &[usize],
+    near_faces: &[usize],
+    at: impl Fn(usize) -> [f64; 2],
+) -> (usize, usize) {
+    let wound = near
+        .iter()
+        .filter(|&&v| {
+            !mesh.is_boundary_vertex(v)
+                && !cones[v].is_nan()
+                && !untangle::wound_by(untangle::fan_turn_with(mesh, v, &at), cones[v])
+        })
+        .count();
+    let folds = near_faces
+        .iter()
+        .filter(|&&f| {
+            let q: [[f64; 2]; 3] = std::array::from_fn(|a| at(3 * f + a));
+            let area = (q[1][0] - q[0][0]) * (q[2][1] - q[0][1])
+                - (q[1][1] - q[0][1]) * (q[2][0] - q[0][0]);
+            area.is_nan() || area <= 0.0
+        })
+        .count();
+    (wound, folds)
 }
 
 /// The curve values c_κ whose lines hold the corners of the folded faces, the stuck ones'
