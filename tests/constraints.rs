@@ -271,6 +271,19 @@ fn fandisk_features_at_other_angles() {
     }
 }
 
+/// A shared mesh solved with its boundary aligned (default settings but `n`), or None without
+/// the shared meshes.
+fn aligned(name: &str, n: u32) -> Option<(Base, EditState, Solved)> {
+    let path = shared(name)?;
+    let settings = Settings {
+        symmetry: n,
+        ..Settings::default()
+    };
+    let base = base_for(&path, settings);
+    let (state, solved) = replay_solve(&base, &[Edit::AlignBoundary { on: true }]);
+    Some((base, state, solved))
+}
+
 #[test]
 fn boundaries_lie_on_parameter_lines() {
     let cases = [
@@ -280,15 +293,9 @@ fn boundaries_lie_on_parameter_lines() {
         ("bunny.obj", 6),
     ];
     for (name, n) in cases {
-        let Some(path) = shared(name) else {
+        let Some((base, state, solved)) = aligned(name, n) else {
             return;
         };
-        let settings = Settings {
-            symmetry: n,
-            ..Settings::default()
-        };
-        let base = base_for(&path, settings);
-        let (state, solved) = replay_solve(&base, &[Edit::AlignBoundary { on: true }]);
         let boundary: usize = base.mesh().boundary_loops().iter().map(|l| l.len()).sum();
         let edges = check_geometric(&base, &state, &solved);
         assert_eq!(edges, boundary, "{name}: every boundary edge is on a curve");
@@ -936,6 +943,17 @@ fn prisms_over_sharp_corners_do_not_fold() {
     }
 }
 
+/// An L-shaped polygon (counter-clockwise) and its triangulation, for [`extruded`].
+const L_POLYGON: [(f64, f64); 6] = [
+    (0.0, 0.0),
+    (4.0, 0.0),
+    (4.0, 2.0),
+    (2.0, 2.0),
+    (2.0, 4.0),
+    (0.0, 4.0),
+];
+const L_CAP: [[u32; 3]; 4] = [[0, 1, 2], [0, 2, 3], [0, 3, 5], [3, 4, 5]];
+
 /// An L-shaped prism with features at 40°, N = 6: read from the local step's curl*-free
 /// frames, its creases between the corner singularities were split into runs with jogs (14
 /// folded faces after the repair at about 3000 vertices, 133 patched places in the remesh,
@@ -945,16 +963,7 @@ fn prisms_over_sharp_corners_do_not_fold() {
 /// manifold (it was not before 2026-12-04; `docs/remesh.md`).
 #[test]
 fn an_l_shaped_prism_with_six_fold_symmetry_does_not_fold() {
-    let polygon = [
-        (0.0, 0.0),
-        (4.0, 0.0),
-        (4.0, 2.0),
-        (2.0, 2.0),
-        (2.0, 4.0),
-        (0.0, 4.0),
-    ];
-    let cap = [[0, 1, 2], [0, 2, 3], [0, 3, 5], [3, 4, 5]];
-    let mesh = extruded(&polygon, &cap, 1.5, 3000);
+    let mesh = extruded(&L_POLYGON, &L_CAP, 1.5, 3000);
     let settings = Settings {
         symmetry: 6,
         ..Settings::default()
@@ -975,17 +984,7 @@ fn an_l_shaped_prism_with_six_fold_symmetry_does_not_fold() {
 /// fold-free and the remesh patches at most a pleat.
 #[test]
 fn singularities_beside_prism_corners_move_onto_them() {
-    let l: (&[(f64, f64)], &[[u32; 3]]) = (
-        &[
-            (0.0, 0.0),
-            (4.0, 0.0),
-            (4.0, 2.0),
-            (2.0, 2.0),
-            (2.0, 4.0),
-            (0.0, 4.0),
-        ],
-        &[[0, 1, 2], [0, 2, 3], [0, 3, 5], [3, 4, 5]],
-    );
+    let l: (&[(f64, f64)], &[[u32; 3]]) = (&L_POLYGON, &L_CAP);
     let u: (&[(f64, f64)], &[[u32; 3]]) = (
         &[
             (0.0, 0.0),
@@ -1074,15 +1073,9 @@ fn renormalized_aligned_bunny_has_no_fold() {
 #[test]
 fn aligned_boundaries_leave_no_wrongly_wound_vertex() {
     for (name, n) in [("cerebral-vessels.obj", 4), ("camelhead.obj", 6)] {
-        let Some(path) = shared(name) else {
+        let Some((base, state, solved)) = aligned(name, n) else {
             return;
         };
-        let settings = Settings {
-            symmetry: n,
-            ..Settings::default()
-        };
-        let base = base_for(&path, settings);
-        let (state, solved) = replay_solve(&base, &[Edit::AlignBoundary { on: true }]);
         check_geometric(&base, &state, &solved);
         let p = &solved.param;
         eprintln!(

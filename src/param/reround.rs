@@ -356,11 +356,8 @@ impl QuadCover {
                 }
                 let fresh = self.global_uv(mesh, local, &g)?;
                 let space = self.global.map_space(mesh.n_vertices(), &g);
-                let mut u: Vec<[f64; 2]> = (0..uv.len())
-                    .map(|c| std::array::from_fn(|k| uv[c][k] + fresh[c][k] - base[c][k]))
-                    .collect();
-                let mut r = self.untangle(mesh, local, &space, Some(cones), &mut u, cancel);
-                self.rewind_left(mesh, local, &space, cones, &mut u, &mut r, cancel);
+                let (u, r) =
+                    self.repaired_try(mesh, local, &space, cones, uv, &fresh, &base, cancel);
                 if !(untangle::folded(&u).is_empty() && p99(&u) <= WINDING_P99_SLACK * p99_now) {
                     continue;
                 }
@@ -598,6 +595,28 @@ impl QuadCover {
 }
 
 impl QuadCover {
+    /// A windings re-rounding's try: the repaired map `uv` moved by the change of the global
+    /// map (`base` → `fresh`, the candidate's, in its map space), repaired and rewound.
+    #[allow(clippy::too_many_arguments)]
+    fn repaired_try(
+        &self,
+        mesh: &TriMesh,
+        local: &LocalSolution,
+        space: &untangle::MapSpace,
+        cones: &[f64],
+        uv: &[[f64; 2]],
+        fresh: &[[f64; 2]],
+        base: &[[f64; 2]],
+        cancel: CancelCheck<'_>,
+    ) -> (Vec<[f64; 2]>, untangle::Repair) {
+        let mut u: Vec<[f64; 2]> = (0..uv.len())
+            .map(|c| std::array::from_fn(|k| uv[c][k] + fresh[c][k] - base[c][k]))
+            .collect();
+        let mut r = self.untangle(mesh, local, space, Some(cones), &mut u, cancel);
+        self.rewind_left(mesh, local, space, cones, &mut u, &mut r, cancel);
+        (u, r)
+    }
+
     /// [`Self::reround_windings`] under constraint curves: vertices the final, fold-free map
     /// still winds wrongly, after the rewinding. A gap their corners depend on, or a curve
     /// value whose line holds them, moves by one lattice step, the other curve values (and
@@ -691,11 +710,8 @@ impl QuadCover {
                     break;
                 }
                 let (fresh, space) = self.curve_map(mesh, local, traced, factored, &w2)?;
-                let mut u: Vec<[f64; 2]> = (0..uv.len())
-                    .map(|c| std::array::from_fn(|a| uv[c][a] + fresh[c][a] - base[c][a]))
-                    .collect();
-                let mut r = self.untangle(mesh, local, &space, Some(cones), &mut u, cancel);
-                self.rewind_left(mesh, local, &space, cones, &mut u, &mut r, cancel);
+                let (u, r) =
+                    self.repaired_try(mesh, local, &space, cones, uv, &fresh, &base, cancel);
                 if !(untangle::folded(&u).is_empty() && p99(&u) <= WINDING_P99_SLACK * p99_now) {
                     continue;
                 }
