@@ -39,6 +39,16 @@ const CORNER_REACH: f64 = 1.0;
 /// mis-wound vertices instead of 2 (none folds either way).
 const JUNCTION_TIE: f64 = 0.1;
 
+/// The smallest angle defect (in units of 2π/N) of a junction that singularities beside it
+/// move onto ([`Base::onto_junctions`]): a corner holding at least half a singularity's
+/// curvature. Where curves cross on a smooth surface (drawn curves, creases on a scan) the
+/// singularity has no reason to sit on the crossing: 36 random curve projects on the shared
+/// meshes (N = 2, 4, 6) had 4 solves change with every junction, 2 better and 2 worse (kitten,
+/// N = 4: 39 → 48 folded faces); kitten with features at 40°, N = 4, 8 → 5 folded faces but
+/// a conformal p99 of 3.08 → 5.35. With ½ these are as before, and every prism's corner
+/// (±1.5 for N = 6, ±1 for N = 4) and fandisk's (1.3–1.5) is above it.
+const JUNCTION_CONE: f64 = 0.5;
+
 /// The combinatorial state after some edits: integer turns and released faces. The
 /// singularities follow from the turns alone ([`turn_index`]).
 #[derive(Clone, Debug, PartialEq)]
@@ -669,8 +679,9 @@ impl Base {
     /// three lattice corners of 60°), one of the other sign only if the junction's index then
     /// lies no farther from the defect, ties within [`JUNCTION_TIE`] (on fandisk a +1/6 beside
     /// a corner with −1/6 whose defect is −1.33 stays: moved, the corner's index 0, 11 faces
-    /// there folded). Acute apexes are left to [`Self::off_curves_in_wedges`]: their wedge's
-    /// singularity belongs inside it. Not with N = 2 (see [`Self::snap_to_curves`]).
+    /// there folded). Only at corners with an angle defect of [`JUNCTION_CONE`] or more. Acute
+    /// apexes are left to [`Self::off_curves_in_wedges`]: their wedge's singularity belongs
+    /// inside it. Not with N = 2 (see [`Self::snap_to_curves`]).
     fn onto_junctions(&self, mut state: EditState, acute_apexes: &[usize]) -> EditState {
         if self.settings.symmetry == 2 {
             return state;
@@ -687,6 +698,9 @@ impl Base {
                 continue;
             }
             let cone = self.defects[j] / std::f64::consts::TAU * n;
+            if cone.abs() < JUNCTION_CONE {
+                continue;
+            }
             let beside: Vec<usize> = self
                 .mesh
                 .outgoing(j)
