@@ -51,6 +51,11 @@ pub(crate) fn jacobian(mesh: &TriMesh, uv: &[[f64; 2]], f: usize) -> (f64, f64, 
     (det, q + r, (q - r).abs())
 }
 
+/// [`conformal_p99`] of the map `uv`.
+pub(crate) fn map_conformal_p99(mesh: &TriMesh, uv: &[[f64; 2]]) -> f64 {
+    conformal_p99(&jacobians(mesh, uv))
+}
+
 /// The 99th percentile over faces of the conformal distortion σ_max/σ_min over the valid
 /// faces (det J > 0, σ_min > 0), as [`quality`] reports it: the value at index ⌊0.99·n⌋ of
 /// the sorted values, found by selection (at 1.1 M faces a sort took 80 ms).

@@ -59,7 +59,7 @@ impl QuadCover {
                 global: (_, first),
             }) => {
                 let global = self.global_uv(mesh, &local, &p.gaps)?;
-                let p99 = |uv: &[[f64; 2]]| metrics::conformal_p99(&metrics::jacobians(mesh, uv));
+                let p99 = |uv: &[[f64; 2]]| metrics::map_conformal_p99(mesh, uv);
                 let level = p99(&first).min(p99(&global));
                 (local, global, Some(level))
             }

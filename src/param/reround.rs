@@ -337,9 +337,7 @@ impl QuadCover {
                         .count();
                     Some((wound + 2 * together, folds))
                 })?;
-            let p99 = |uv: &[[f64; 2]]| {
-                super::metrics::conformal_p99(&super::metrics::jacobians(mesh, uv))
-            };
+            let p99 = |uv: &[[f64; 2]]| super::metrics::map_conformal_p99(mesh, uv);
             let p99_now = p99(uv);
             let mut kept = false;
             // The last pair parted at the cost of as many other wrongly wound vertices: taken
@@ -643,20 +641,18 @@ impl QuadCover {
         repair: &mut untangle::Repair,
         cancel: CancelCheck<'_>,
     ) -> Result<(), ParamError> {
-        // More than a few are a crowded cluster, which a finer try takes first
-        // (`crowded::FEW_MISWOUND`; parted here first, camelhead aligned at 1500 vertices,
-        // N = 4, kept its first map with 2 instead of a finer one with none).
-        if mesh.n_faces() > WINDING_MAX_FACES
-            || untangle::miswound(mesh, uv, cones).len() > super::crowded::FEW_MISWOUND
-        {
+        if mesh.n_faces() > WINDING_MAX_FACES {
             return Ok(());
         }
-        let p99 =
-            |uv: &[[f64; 2]]| super::metrics::conformal_p99(&super::metrics::jacobians(mesh, uv));
+        let p99 = |uv: &[[f64; 2]]| super::metrics::map_conformal_p99(mesh, uv);
         for _ in 0..WINDING_ROUNDS {
             let wrong = untangle::miswound(mesh, uv, cones);
+            // More than a few are a crowded cluster, which a finer try takes first
+            // (`crowded::FEW_MISWOUND`; parted here first, camelhead aligned at 1500 vertices,
+            // N = 4, kept its first map with 2 instead of a finer one with none). A round kept
+            // leaves fewer, so this decides at the first.
             if wrong.is_empty()
-                || wrong.len() > WINDING_MAX_VERTICES
+                || wrong.len() > super::crowded::FEW_MISWOUND
                 || !untangle::folded(uv).is_empty()
                 || cancel()
             {

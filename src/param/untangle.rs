@@ -1227,8 +1227,7 @@ pub(crate) fn relax_conformal(
         (p[0] - q[0]).hypot(p[1] - q[1]) > 1e-9 * (1.0 + q[0].abs().max(q[1].abs()))
     };
     let moved = |c: usize| moved_in(uv, c);
-    let level = level
-        .unwrap_or_else(|| super::metrics::conformal_p99(&super::metrics::jacobians(mesh, global)));
+    let level = level.unwrap_or_else(|| super::metrics::map_conformal_p99(mesh, global));
     // The reach: the vertices within CONFORMAL_REACH rings of the faces the repair changed
     // (marked in place: a set of the vertices cost 0.14 s at 1.1 M faces).
     let mut near = vec![false; mesh.n_vertices()];
@@ -1284,9 +1283,8 @@ pub(crate) fn relax_conformal(
     let mut p99 = super::metrics::conformal_p99(&jac);
     let mut after = miswound_now.to_vec();
     // (a pass not kept leaves the map as it was: after one of each width in a row, nothing
-    // more; the
-    // first pass runs even when the repaired map's p99 is at the level already, as the faces
-    // above it are where the repair left its distortion)
+    // more; the first pass runs even when the repaired map's p99 is at the level already, as
+    // the faces above it are where the repair left its distortion)
     let mut not_kept = 0;
     for (pass, rings) in CONFORMAL_RINGS.into_iter().enumerate() {
         if (pass > 0 && p99 <= level) || not_kept == WIDTHS || cancel() {
