@@ -22,6 +22,7 @@
 // Index loops over the 3 corners / vertices read clearer than iterator chains here.
 #![allow(clippy::needless_range_loop)]
 
+mod batched;
 mod constrained;
 mod constraints;
 pub mod crowded;
