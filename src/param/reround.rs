@@ -570,11 +570,7 @@ impl QuadCover {
                 .flat_map(|k| [2 * k, 2 * k + 1])
                 .chain(values_near(mesh, traced, &repair.stuck, &folds_now))
                 .collect();
-            let steps: Vec<Vec<f64>> = unknowns
-                .iter()
-                .flat_map(|&k| [-1.0, 1.0].map(|step| traced.stepped(w, k, step)))
-                .flatten()
-                .collect();
+            let steps = unit_steps(traced, w, &unknowns);
             if cancel() {
                 return Ok(Vec::new());
             }
@@ -713,11 +709,7 @@ impl QuadCover {
             let (base, _) = self.curve_map(mesh, local, traced, factored, w)?;
             // Scores and steps only: the maps (one per corner each) are solved again for the
             // few tried.
-            let steps: Vec<Vec<f64>> = unknowns
-                .iter()
-                .flat_map(|&k| [-1.0, 1.0].map(|step| traced.stepped(w, k, step)))
-                .flatten()
-                .collect();
+            let steps = unit_steps(traced, w, &unknowns);
             if cancel() {
                 return Ok(());
             }
@@ -779,6 +771,17 @@ impl QuadCover {
         }
         Ok(())
     }
+}
+
+/// The solutions of C_c w = 0 nearest to `w` with one of `unknowns` moved by one lattice
+/// step either way ([`Traced::stepped`]), in that order: the candidates of both re-roundings
+/// under curves.
+fn unit_steps(traced: &Traced, w: &[f64], unknowns: &[usize]) -> Vec<Vec<f64>> {
+    unknowns
+        .iter()
+        .flat_map(|&k| [-1.0, 1.0].map(|step| traced.stepped(w, k, step)))
+        .flatten()
+        .collect()
 }
 
 /// A candidate step's moved map `at` (corner → point) scored around the wrongly wound
