@@ -1562,3 +1562,79 @@ fn solve_cli(args: &[&std::ffi::OsStr], report: &std::path::Path) -> (String, se
     let r = serde_json::from_str(&std::fs::read_to_string(report).unwrap()).unwrap();
     (stderr, r)
 }
+
+/// Folds the repair cannot undo are reported with the curves beside them: on an L-shaped prism
+/// with features at 40° and N = 2 (stripes; a two-fold field cannot run along all three
+/// creases of a corner), `solve` warns and names curves, and the report lists the same ones,
+/// each a curve of the solve. (If this case ever comes out fold-free, the test asks for
+/// another that does not.)
+#[test]
+fn folds_left_under_curves_name_the_curves_beside_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let part = dir.path().join("l_prism.obj");
+    let mesh = extruded(&L_POLYGON, &L_CAP, 0.4, 1500);
+    quadcover::io::write_obj(
+        &part,
+        &quadcover::io::ObjOutput::new(mesh.positions(), mesh.faces()),
+    )
+    .unwrap();
+    let report = dir.path().join("r.json");
+    let (stderr, r) = solve_cli(
+        &[
+            part.as_os_str(),
+            "--symmetry".as_ref(),
+            "2".as_ref(),
+            "--features".as_ref(),
+            "40".as_ref(),
+            "--out".as_ref(),
+            dir.path().join("uv.obj").as_os_str(),
+        ],
+        &report,
+    );
+    let folded = r["flipped_faces"].as_u64().unwrap();
+    assert!(
+        folded > 0,
+        "the case came out fold-free: pick one that folds"
+    );
+    let beside: Vec<u64> = r["curves_beside_folds"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_u64().unwrap())
+        .collect();
+    assert!(!beside.is_empty(), "{stderr}");
+    let ids: Vec<u64> = r["curves"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["id"].as_u64().unwrap())
+        .collect();
+    assert!(beside.iter().all(|b| ids.contains(b)), "{beside:?} {ids:?}");
+    assert!(beside.windows(2).all(|w| w[0] < w[1]));
+    let warning = stderr
+        .lines()
+        .find(|l| l.contains("stay folded after the injectivity repair"))
+        .unwrap_or_else(|| panic!("no warning: {stderr}"));
+    assert!(
+        warning.contains(&format!("{folded} faces stay folded")),
+        "{warning}"
+    );
+    assert!(
+        warning.contains(&format!("beside curves {}", beside[0])),
+        "{warning}"
+    );
+    // A fold-free solve has no such warning (the same part, N = 4).
+    let (stderr, r) = solve_cli(
+        &[
+            part.as_os_str(),
+            "--features".as_ref(),
+            "40".as_ref(),
+            "--out".as_ref(),
+            dir.path().join("uv4.obj").as_os_str(),
+        ],
+        &report,
+    );
+    assert_eq!(r["flipped_faces"], 0);
+    assert_eq!(r["curves_beside_folds"], serde_json::json!([]));
+    assert!(!stderr.contains("stay folded"), "{stderr}");
+}

@@ -2348,3 +2348,45 @@ fn fan_centres_are_flagged_on_load() {
         "the copy is not flagged"
     );
 }
+
+/// Folds left under curves name the curves beside them in the *Folds* line: fandisk with its
+/// features detected, a map injected with one face beside a curve mirrored (and one far from
+/// every curve, which names none).
+#[test]
+fn the_folds_line_names_the_curves_beside_the_folds() {
+    let (_dir, mut h) = editor_on("fandisk.obj", true);
+    h.get_by_label("Detect features").click();
+    h.step();
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    let mesh = h.state().document.mesh.clone().unwrap();
+    let found = curves(&h);
+    let (&id, curve) = found.iter().next().expect("feature curves");
+    let v = curve.vertices[curve.vertices.len() / 2];
+    let f = mesh.face_of(mesh.outgoing(v).next().unwrap());
+    let p = h.state().document.parameterization.clone().unwrap();
+    assert_eq!(
+        p.flipped_faces, 0,
+        "fandisk's map under its features is fold-free"
+    );
+    let mut q = p.clone();
+    q.uv.swap(3 * f + 1, 3 * f + 2);
+    q.flipped_faces = 1;
+    h.state_mut().document.set_parameterization(q, true);
+    h.get_by_label("Folds").click();
+    h.run_steps(2);
+    let beside = quadcover::constraint::curves_beside(&mesh, found.values(), &[f], 2);
+    assert!(beside.contains(&id), "{beside:?}");
+    let folds = h.state().document.folds.clone().unwrap();
+    assert_eq!(folds.beside_curves, beside);
+    let before = match p.flipped_faces_before_repair {
+        0 => String::new(),
+        b => format!(" ({b} before repair)"),
+    };
+    h.get_by_label(&format!(
+        "1 folded face{before}, beside curve{} {}{}",
+        if beside.len() == 1 { "" } else { "s" },
+        quadcover::constraint::id_list(&beside),
+        wound_suffix(p.miswound.len())
+    ));
+}

@@ -107,6 +107,8 @@ pub struct Folds {
     /// turns by another multiple of 2π than their cone angle (`Parameterization::miswound`).
     pub miswound: Vec<usize>,
     pub repair: FoldRepair,
+    /// Constraint curves (ids) beside the folded faces ([`crate::constraint::curves_beside`]).
+    pub beside_curves: Vec<u32>,
 }
 
 impl Folds {
@@ -115,6 +117,7 @@ impl Folds {
             faces: crate::param::folded_faces(uv),
             miswound: Vec::new(),
             repair,
+            beside_curves: Vec::new(),
         }
     }
 
@@ -152,6 +155,11 @@ impl Folds {
             FoldRepair::Ran { before, .. } => format!("{count} ({before} before repair)"),
             FoldRepair::Off => format!("{count} (untangling off)"),
             FoldRepair::Pending => format!("{count} (before the repair, which is running)"),
+        };
+        let line = match self.beside_curves.as_slice() {
+            [] => line,
+            [c] => format!("{line}, beside curve {c}"),
+            cs => format!("{line}, beside curves {}", crate::constraint::id_list(cs)),
         };
         match self.miswound.len() {
             0 => line,
@@ -1044,6 +1052,16 @@ impl Document {
         );
         let mut folds = Folds::with_poles(&p.uv, &p.poles, repair);
         folds.miswound = p.miswound.clone();
+        if !folds.faces.is_empty()
+            && let (Some(mesh), Some(curves)) = (&self.mesh, self.curves())
+        {
+            folds.beside_curves = crate::constraint::curves_beside(
+                mesh,
+                curves.values(),
+                &folds.faces,
+                crate::constraint::BESIDE_FOLDS_RINGS,
+            );
+        }
         self.folds = Some(Arc::new(folds));
         self.param = Some(match &self.mesh {
             Some(mesh) => ParamDisplay::from_parameterization(mesh, &p),

@@ -112,5 +112,17 @@ mod tests {
         assert_eq!(wound.shown_faces(&mesh), vec![1]);
         wound.miswound = vec![0, 1];
         assert_eq!(wound.shown_faces(&mesh), vec![0, 1]);
+        // Curves beside the folds are named, a long list cut short.
+        let mut beside = Folds::new(&uv, FoldRepair::Ran { before: 4, ms: 1.0 });
+        beside.beside_curves = vec![3];
+        assert_eq!(
+            beside.summary(),
+            "1 folded face (4 before repair), beside curve 3"
+        );
+        beside.beside_curves = (0..11).collect();
+        assert_eq!(
+            beside.summary(),
+            "1 folded face (4 before repair), beside curves 0, 1, 2, 3, 4, 5, 6, 7 and 3 more"
+        );
     }
 }

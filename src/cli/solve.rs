@@ -207,6 +207,8 @@ struct Report {
     /// Interior vertices (file indices) whose fan turns by other than their cone angle
     /// although no face is folded: the map is not locally injective there.
     miswound_vertices: Vec<usize>,
+    /// Constraint curves (ids) within two rings of the faces the repair left folded.
+    curves_beside_folds: Vec<u32>,
     /// What the local step removed from the guiding field (thesis sec. 3.3), in grid cells.
     curl: f64,
     seam_max_error: f64,
@@ -474,6 +476,8 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let mut solved = None;
     // The constraint curves' edges (empty without curves), for the remesh's relaxation.
     let mut curve_edges = Vec::new();
+    // The curves beside faces the repair left folded (named in a warning below).
+    let mut curves_at_folds: Vec<u32> = Vec::new();
     // Curve shortcuts are edits after the project's (or the only ones).
     let mut shortcut_edits = Vec::new();
     if let Some(angle_deg) = args.features {
@@ -568,6 +572,14 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             }
             let s = base.solve(replay.last(), &edit::never)?;
             curve_edges = crate::constraint::curve_edges(&mesh, replay.last().curves.values());
+            if s.param.flipped_faces > 0 {
+                curves_at_folds = crate::constraint::curves_beside(
+                    &mesh,
+                    replay.last().curves.values(),
+                    &crate::param::folded_faces(&s.param.uv),
+                    crate::constraint::BESIDE_FOLDS_RINGS,
+                );
+            }
             let field = s.field.clone();
             solved = Some(s.param);
             field
@@ -788,6 +800,12 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             c.max_multiplier, c.singularities, c.faces
         ));
     }
+    if p.flipped_faces > 0 && !settings.no_untangle {
+        bar.line(format!(
+            "  warning: {}",
+            folds_left_warning(p.flipped_faces, &curves_at_folds)
+        ));
+    }
     let fans = crate::mesh::isotropic::fan_centres(&mesh);
     let at_fans: Vec<usize> = p
         .poles
@@ -838,6 +856,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 .iter()
                 .map(|&v| repair.original_vertex[v] as usize)
                 .collect(),
+            curves_beside_folds: curves_at_folds.clone(),
             curl: p.curl,
             seam_max_error: p.seam_max_error,
             curves: p
@@ -893,4 +912,28 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         io::write::write_atomic(path, |w| w.write_all(json.as_bytes()))?;
     }
     Ok(())
+}
+
+/// The warning for faces the injectivity repair left folded, naming the constraint curves
+/// beside them (`curves`, ids; empty without curves or none near).
+fn folds_left_warning(folded: usize, curves: &[u32]) -> String {
+    let faces = if folded == 1 {
+        "1 face stays".to_string()
+    } else {
+        format!("{folded} faces stay")
+    };
+    if curves.is_empty() {
+        return format!(
+            "{faces} folded after the injectivity repair (the remesh patches them); a finer grid \
+             (--target-vertices, --scale) may unfold them"
+        );
+    }
+    format!(
+        "{faces} folded after the injectivity repair, beside curve{} {} (the remesh patches \
+         them; usually a singularity on or next to a curve, whose line has too little room \
+         there). A finer grid (--target-vertices, --scale), fewer feature curves (a larger \
+         --features angle) or those curves made combinatorial may help",
+        if curves.len() == 1 { "" } else { "s" },
+        crate::constraint::id_list(curves)
+    )
 }

@@ -96,6 +96,67 @@ pub fn curve_edges<'a>(mesh: &TriMesh, curves: impl IntoIterator<Item = &'a Curv
     out
 }
 
+/// Rings around faces a repair left folded within which [`curves_beside`] names curves (the
+/// CLI's warning and report, the editor's panel).
+pub const BESIDE_FOLDS_RINGS: usize = 2;
+
+/// Curve ids for a message: "3", "0, 1, 2", or the first eight and "and N more".
+pub fn id_list(ids: &[u32]) -> String {
+    const NAMED: usize = 8;
+    let shown: Vec<String> = ids.iter().take(NAMED).map(u32::to_string).collect();
+    if ids.len() > NAMED {
+        format!("{} and {} more", shown.join(", "), ids.len() - NAMED)
+    } else {
+        shown.join(", ")
+    }
+}
+
+/// The ids of the `curves` with a vertex within `rings` rings of the vertices of `faces`,
+/// sorted: what to name when a map under curves keeps folded faces (the repair could not undo
+/// them; the usual cause is a singularity on or beside such a curve, where its line has to turn
+/// or squeeze the faces between).
+pub fn curves_beside<'a>(
+    mesh: &TriMesh,
+    curves: impl IntoIterator<Item = &'a Curve>,
+    faces: &[usize],
+    rings: usize,
+) -> Vec<u32> {
+    let mut near = vec![false; mesh.n_vertices()];
+    let mut front: Vec<usize> = faces
+        .iter()
+        .filter(|&&f| f < mesh.n_faces())
+        .flat_map(|&f| mesh.face(f))
+        .collect();
+    for &v in &front {
+        near[v] = true;
+    }
+    for _ in 0..rings {
+        let mut next = Vec::new();
+        for &v in &front {
+            for h in mesh.outgoing(v) {
+                let w = mesh.to(h);
+                if !near[w] {
+                    near[w] = true;
+                    next.push(w);
+                }
+            }
+        }
+        front = next;
+    }
+    let mut ids: Vec<u32> = curves
+        .into_iter()
+        .filter(|c| {
+            c.vertices
+                .iter()
+                .any(|&v| near.get(v).copied().unwrap_or(false))
+        })
+        .map(|c| c.id)
+        .collect();
+    ids.sort_unstable();
+    ids.dedup();
+    ids
+}
+
 /// A halfedge of the edge between `a` and `b` (the one from `a` to `b` when it exists; on a
 /// boundary edge only one of the two does), if they share an edge.
 pub fn halfedge_between(mesh: &TriMesh, a: usize, b: usize) -> Option<usize> {
@@ -238,6 +299,37 @@ pub fn check_path(mesh: &TriMesh, vertices: &[usize], closed: bool) -> Result<()
 mod tests {
     use super::*;
     use crate::mesh::generate;
+
+    /// Curves are named when one of their vertices is within the rings of a face's vertices,
+    /// and only then.
+    #[test]
+    fn curves_beside_faces_are_named() {
+        // A 10 × 10 grid, vertices row by row (11 per row); face 0 is at the corner (0, 0).
+        let m = generate::grid(10, 10, 1.0, 1.0);
+        let curve = |id: u32, vertices: Vec<usize>| Curve {
+            id,
+            vertices,
+            closed: false,
+            kind: CurveKind::Geometric,
+            origin: CurveOrigin::Drawn,
+        };
+        // Row 2 (one ring up from the corner face's top vertices at row 1), and row 8 beside
+        // the opposite corner.
+        let near = curve(3, (22..=26).collect());
+        let far = curve(7, (94..=98).collect());
+        let curves = [far, near];
+        assert_eq!(curves_beside(&m, &curves, &[0], 1), vec![3]);
+        assert_eq!(curves_beside(&m, &curves, &[0], 0), Vec::<u32>::new());
+        assert_eq!(curves_beside(&m, &curves, &[], 5), Vec::<u32>::new());
+        // A face beyond the mesh is ignored.
+        assert_eq!(curves_beside(&m, &curves, &[10_000], 3), Vec::<u32>::new());
+        let last = m.n_faces() - 1;
+        assert_eq!(curves_beside(&m, &curves, &[0, last], 2), vec![3, 7]);
+        assert_eq!(id_list(&[3]), "3");
+        assert_eq!(id_list(&[3, 7]), "3, 7");
+        let many: Vec<u32> = (0..11).collect();
+        assert_eq!(id_list(&many), "0, 1, 2, 3, 4, 5, 6, 7 and 3 more");
+    }
 
     #[test]
     fn paths_are_checked_with_their_positions() {
