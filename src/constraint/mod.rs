@@ -122,7 +122,7 @@ pub fn curves_beside<'a>(
     rings: usize,
 ) -> Vec<u32> {
     let mut near = vec![false; mesh.n_vertices()];
-    let mut front: Vec<usize> = faces
+    let front: Vec<usize> = faces
         .iter()
         .filter(|&&f| f < mesh.n_faces())
         .flat_map(|&f| mesh.face(f))
@@ -130,19 +130,7 @@ pub fn curves_beside<'a>(
     for &v in &front {
         near[v] = true;
     }
-    for _ in 0..rings {
-        let mut next = Vec::new();
-        for &v in &front {
-            for h in mesh.outgoing(v) {
-                let w = mesh.to(h);
-                if !near[w] {
-                    near[w] = true;
-                    next.push(w);
-                }
-            }
-        }
-        front = next;
-    }
+    mesh.mark_rings(&mut near, front, rings);
     let mut ids: Vec<u32> = curves
         .into_iter()
         .filter(|c| {

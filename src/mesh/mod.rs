@@ -151,6 +151,23 @@ impl TriMesh {
         }
         ring
     }
+    /// Marks in `near` (one flag per vertex) every vertex within `rings` rings of `front`,
+    /// breadth first; the vertices of `front` must be marked already.
+    pub fn mark_rings(&self, near: &mut [bool], mut front: Vec<usize>, rings: usize) {
+        for _ in 0..rings {
+            let mut next = Vec::new();
+            for &v in &front {
+                for h in self.outgoing(v) {
+                    let w = self.to(h);
+                    if !near[w] {
+                        near[w] = true;
+                        next.push(w);
+                    }
+                }
+            }
+            front = next;
+        }
+    }
 }
 
 /// Iterator over the outgoing halfedges of a vertex, see [`TriMesh::outgoing`].

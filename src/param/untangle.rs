@@ -1242,19 +1242,7 @@ pub(crate) fn relax_conformal(
             }
         }
     }
-    for _ in 0..CONFORMAL_REACH {
-        let mut next = Vec::new();
-        for &v in &front {
-            for h in mesh.outgoing(v) {
-                let w = mesh.to(h);
-                if !near[w] {
-                    near[w] = true;
-                    next.push(w);
-                }
-            }
-        }
-        front = next;
-    }
+    mesh.mark_rings(&mut near, front, CONFORMAL_REACH);
     let within = |f: usize| mesh.face(f).iter().any(|&v| near[v]);
     let above = |j: &(f64, f64, f64)| !(j.1 <= level * j.2);
     let mut jac = super::metrics::jacobians(mesh, uv);
