@@ -2389,4 +2389,21 @@ fn the_folds_line_names_the_curves_beside_the_folds() {
         quadcover::constraint::id_list(&beside),
         wound_suffix(p.miswound.len())
     ));
+    // Those curves are drawn thick in the folds' colour, one segment per edge of each, while
+    // the Folds overlay is on; off, in their kind's style again.
+    use quadcover::app::folds::FOLD_COLOR;
+    let edges: usize = beside.iter().map(|i| found[i].segments().len()).sum();
+    let magenta = |h: &mut Harness<'static, EditorApp>| {
+        h.state_mut()
+            .curves_overlay()
+            .unwrap()
+            .thick_lines
+            .iter()
+            .filter(|l| l.color == FOLD_COLOR)
+            .count()
+    };
+    assert_eq!(magenta(&mut h), edges);
+    h.get_by_label("Folds").click();
+    h.run_steps(2);
+    assert_eq!(magenta(&mut h), 0);
 }

@@ -143,11 +143,13 @@ fn dashes(points: &[Vec3], period: f32, emit: &mut dyn FnMut(Vec3, Vec3)) {
 }
 
 /// The document's curves as an overlay: each in its kind's style, the ids in `contradiction`
-/// in red.
+/// in red, those in `beside_folds` (curves beside faces the repair left folded, shown with the
+/// *Folds* overlay) thick in the folds' colour.
 pub fn curves_overlay(
     mesh: &TriMesh,
     curves: &BTreeMap<u32, Curve>,
     contradiction: &[u32],
+    beside_folds: &[u32],
 ) -> Overlay {
     let period = dash_period(mesh);
     let mut o = Overlay {
@@ -158,6 +160,9 @@ pub fn curves_overlay(
         let mut style = LineStyle::of_kind(c.kind, period);
         if contradiction.contains(&c.id) {
             style.color = CONTRADICTION_COLOR;
+            style.thick = true;
+        } else if beside_folds.contains(&c.id) {
+            style.color = crate::app::folds::FOLD_COLOR;
             style.thick = true;
         }
         push_polyline(&mut o, mesh, &c.vertices, c.closed, style);
@@ -207,8 +212,9 @@ pub struct CurvesUi {
     pub feature_angle: f64,
     /// Show the feature edges at `feature_angle` over the surface.
     pub feature_preview: bool,
-    /// (mesh generation, curves, contradiction) the curve overlay was built for.
-    curves_key: Option<(u64, BTreeMap<u32, Curve>, Vec<u32>)>,
+    /// (mesh generation, curves, contradiction, curves beside folds) the curve overlay was
+    /// built for.
+    curves_key: Option<CurvesKey>,
     curves_overlay: Option<Arc<Overlay>>,
     /// (mesh generation, angle) of the feature preview, its edge count and overlay.
     /// (document generation, feature angle, minimum set length) of the preview shown.
@@ -218,6 +224,9 @@ pub struct CurvesUi {
     preview_warning: Option<String>,
     preview_overlay: Option<Arc<Overlay>>,
 }
+
+/// What the curve overlay depends on ([`CurvesUi`]).
+type CurvesKey = (u64, BTreeMap<u32, Curve>, Vec<u32>, Vec<u32>);
 
 impl Default for CurvesUi {
     fn default() -> Self {
@@ -235,21 +244,31 @@ impl Default for CurvesUi {
 }
 
 impl EditorApp {
-    /// The document's curves as an overlay (rebuilt when they or the contradiction change).
+    /// The document's curves as an overlay (rebuilt when they, the contradiction or the curves
+    /// beside folds shown change).
     pub fn curves_overlay(&mut self) -> Option<Arc<Overlay>> {
         let doc = &self.document;
         if !doc.display.show_curves {
             return None;
         }
         let (mesh, curves) = (doc.mesh.as_ref()?, doc.curves()?);
+        let beside: Vec<u32> = match &doc.folds {
+            Some(f) if doc.display.show_folds => f.beside_curves.clone(),
+            _ => Vec::new(),
+        };
         let ui = &mut self.curves;
-        let fresh = ui.curves_key.as_ref().is_some_and(|(g, c, x)| {
-            *g == doc.generation() && c == curves && *x == doc.contradiction
+        let fresh = ui.curves_key.as_ref().is_some_and(|(g, c, x, b)| {
+            *g == doc.generation() && c == curves && *x == doc.contradiction && *b == beside
         });
         if !fresh {
             ui.curves_overlay = (!curves.is_empty())
-                .then(|| Arc::new(curves_overlay(mesh, curves, &doc.contradiction)));
-            ui.curves_key = Some((doc.generation(), curves.clone(), doc.contradiction.clone()));
+                .then(|| Arc::new(curves_overlay(mesh, curves, &doc.contradiction, &beside)));
+            ui.curves_key = Some((
+                doc.generation(),
+                curves.clone(),
+                doc.contradiction.clone(),
+                beside,
+            ));
         }
         ui.curves_overlay.clone()
     }
@@ -372,7 +391,8 @@ impl EditorApp {
         ));
         ui.checkbox(&mut self.document.display.show_curves, "Show curves")
             .on_hover_text(
-                "Geometric: solid orange; combinatorial: dashed cyan; contradictory: red",
+                "Geometric: solid orange; combinatorial: dashed cyan; contradictory: red; \
+                 beside folds the repair left (with Folds on): thick magenta",
             );
 
         ui.label("Sharp features (dihedral angle above)");
@@ -478,15 +498,33 @@ mod tests {
             (1, curve(1, CurveKind::Combinatorial)),
         ]
         .into();
-        let o = curves_overlay(&mesh, &curves, &[]);
+        let o = curves_overlay(&mesh, &curves, &[], &[]);
         assert_eq!(o.thick_lines.len(), 3);
         assert!(o.thick_lines.iter().all(|l| l.color == GEOMETRIC_COLOR));
         assert!(o.lines.len() > 3, "dashed: more pieces than edges");
         assert!(o.lines.iter().all(|l| l.color == COMBINATORIAL_COLOR));
-        let red = curves_overlay(&mesh, &curves, &[1]);
+        let red = curves_overlay(&mesh, &curves, &[1], &[]);
         assert_eq!(red.lines.len(), 0);
         assert!(
             red.thick_lines
+                .iter()
+                .filter(|l| l.color == CONTRADICTION_COLOR)
+                .count()
+                > 3
+        );
+        // Beside folds: thick in the folds' colour (a contradiction's red wins).
+        let fold = crate::app::folds::FOLD_COLOR;
+        let beside = curves_overlay(&mesh, &curves, &[], &[0]);
+        assert_eq!(beside.thick_lines.len(), 3);
+        assert!(beside.thick_lines.iter().all(|l| l.color == fold));
+        assert!(beside.lines.iter().all(|l| l.color == COMBINATORIAL_COLOR));
+        let both = curves_overlay(&mesh, &curves, &[1], &[0, 1]);
+        assert_eq!(
+            both.thick_lines.iter().filter(|l| l.color == fold).count(),
+            3
+        );
+        assert!(
+            both.thick_lines
                 .iter()
                 .filter(|l| l.color == CONTRADICTION_COLOR)
                 .count()
