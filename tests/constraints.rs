@@ -1622,7 +1622,11 @@ fn folds_left_under_curves_name_the_curves_beside_them() {
         "{warning}"
     );
     assert!(
-        warning.contains(&format!("beside curves {}", beside[0])),
+        warning.contains(&format!(
+            "beside curve{} {}",
+            if beside.len() == 1 { "" } else { "s" },
+            beside[0]
+        )),
         "{warning}"
     );
     // A fold-free solve has no such warning (the same part, N = 4).

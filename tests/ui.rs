@@ -2384,9 +2384,8 @@ fn the_folds_line_names_the_curves_beside_the_folds() {
         b => format!(" ({b} before repair)"),
     };
     h.get_by_label(&format!(
-        "1 folded face{before}, beside curve{} {}{}",
-        if beside.len() == 1 { "" } else { "s" },
-        quadcover::constraint::id_list(&beside),
+        "1 folded face{before}, beside {}{}",
+        quadcover::constraint::curves_named(&beside),
         wound_suffix(p.miswound.len())
     ));
     // Those curves are drawn thick in the folds' colour, one segment per edge of each, while

@@ -158,8 +158,7 @@ impl Folds {
         };
         let line = match self.beside_curves.as_slice() {
             [] => line,
-            [c] => format!("{line}, beside curve {c}"),
-            cs => format!("{line}, beside curves {}", crate::constraint::id_list(cs)),
+            cs => format!("{line}, beside {}", crate::constraint::curves_named(cs)),
         };
         match self.miswound.len() {
             0 => line,

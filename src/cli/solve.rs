@@ -929,11 +929,10 @@ fn folds_left_warning(folded: usize, curves: &[u32]) -> String {
         );
     }
     format!(
-        "{faces} folded after the injectivity repair, beside curve{} {} (the remesh patches \
-         them; usually a singularity on or next to a curve, whose line has too little room \
-         there). A finer grid (--target-vertices, --scale), fewer feature curves (a larger \
-         --features angle) or those curves made combinatorial may help",
-        if curves.len() == 1 { "" } else { "s" },
-        crate::constraint::id_list(curves)
+        "{faces} folded after the injectivity repair, beside {} (the remesh patches them; \
+         usually a singularity on or next to a curve, whose line has too little room there). A \
+         finer grid (--target-vertices, --scale), fewer feature curves (a larger --features \
+         angle) or those curves made combinatorial may help",
+        crate::constraint::curves_named(curves)
     )
 }

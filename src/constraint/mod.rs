@@ -100,14 +100,16 @@ pub fn curve_edges<'a>(mesh: &TriMesh, curves: impl IntoIterator<Item = &'a Curv
 /// CLI's warning and report, the editor's panel).
 pub const BESIDE_FOLDS_RINGS: usize = 2;
 
-/// Curve ids for a message: "3", "0, 1, 2", or the first eight and "and N more".
-pub fn id_list(ids: &[u32]) -> String {
+/// Curves named in a message: "curve 3", "curves 0, 1, 2", or the first eight and "and N
+/// more".
+pub fn curves_named(ids: &[u32]) -> String {
     const NAMED: usize = 8;
     let shown: Vec<String> = ids.iter().take(NAMED).map(u32::to_string).collect();
+    let noun = if ids.len() == 1 { "curve" } else { "curves" };
     if ids.len() > NAMED {
-        format!("{} and {} more", shown.join(", "), ids.len() - NAMED)
+        format!("{noun} {} and {} more", shown.join(", "), ids.len() - NAMED)
     } else {
-        shown.join(", ")
+        format!("{noun} {}", shown.join(", "))
     }
 }
 
@@ -313,10 +315,13 @@ mod tests {
         assert_eq!(curves_beside(&m, &curves, &[10_000], 3), Vec::<u32>::new());
         let last = m.n_faces() - 1;
         assert_eq!(curves_beside(&m, &curves, &[0, last], 2), vec![3, 7]);
-        assert_eq!(id_list(&[3]), "3");
-        assert_eq!(id_list(&[3, 7]), "3, 7");
+        assert_eq!(curves_named(&[3]), "curve 3");
+        assert_eq!(curves_named(&[3, 7]), "curves 3, 7");
         let many: Vec<u32> = (0..11).collect();
-        assert_eq!(id_list(&many), "0, 1, 2, 3, 4, 5, 6, 7 and 3 more");
+        assert_eq!(
+            curves_named(&many),
+            "curves 0, 1, 2, 3, 4, 5, 6, 7 and 3 more"
+        );
     }
 
     #[test]

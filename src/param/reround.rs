@@ -732,7 +732,6 @@ impl QuadCover {
                 REROUND_TRIES
             };
             let p99_now = p99(uv);
-            let now_uv: &[[f64; 2]] = uv;
             let mut taken = None;
             let mut failed = None;
             first_taken(
