@@ -81,6 +81,9 @@ pub struct RelaxStats {
     pub free: usize,
     /// Vertex steps put back because a face would have flipped or degenerated.
     pub rejected: usize,
+    /// Chain vertices moved onto a bend of their chain at the end, so that the edges to their
+    /// chain neighbours follow it closer.
+    pub fitted: usize,
     pub iterations: usize,
 }
 
@@ -131,6 +134,66 @@ impl Chain {
         best
     }
 
+    /// Chain points strictly after location `from` up to location `to` (locations are segment
+    /// indices; a point i is at location i), the shorter way round on a closed chain.
+    fn points_between(&self, from: usize, to: usize) -> Vec<usize> {
+        let ns = self.n_segments();
+        if !self.closed {
+            return (from.min(to) + 1..=from.max(to)).collect();
+        }
+        let fwd = (to + ns - from) % ns;
+        let (start, count) = if fwd <= ns - fwd {
+            (from, fwd)
+        } else {
+            (to, ns - fwd)
+        };
+        (1..=count).map(|k| (start + k) % ns).collect()
+    }
+
+    /// The largest distance of the chain points strictly between locations `from` and `to`
+    /// from the chord [p, q].
+    fn chord_deviation(&self, p: DVec3, q: DVec3, from: usize, to: usize) -> f64 {
+        self.points_between(from, to)
+            .into_iter()
+            .map(|i| (closest_on_segment(self.pts[i], p, q) - self.pts[i]).length())
+            .fold(0.0, f64::max)
+    }
+
+    /// Where a vertex at `now` (on segment `seg`) between chain neighbours `ends` (at
+    /// locations `locs`) follows the chain best with its two chords: the chain point between
+    /// the neighbours with the smallest largest deviation of the chain from the chords, both
+    /// at least `min_length` long; `None` when no point qualifies.
+    fn chord_fit(
+        &self,
+        ends: [DVec3; 2],
+        locs: [usize; 2],
+        now: DVec3,
+        seg: usize,
+        min_length: f64,
+    ) -> Option<ChordFit> {
+        let deviation_at = |p: DVec3, loc: usize| {
+            self.chord_deviation(ends[0], p, locs[0], loc)
+                .max(self.chord_deviation(p, ends[1], loc, locs[1]))
+        };
+        let deviation_now = deviation_at(now, seg);
+        let mut candidates = self.points_between(locs[0], seg);
+        candidates.extend(self.points_between(seg, locs[1]));
+        candidates
+            .into_iter()
+            .filter(|&i| {
+                let p = self.pts[i];
+                (p - ends[0]).length() >= min_length && (p - ends[1]).length() >= min_length
+            })
+            .map(|i| (deviation_at(self.pts[i], i), i))
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+            .map(|(deviation, i)| ChordFit {
+                point: self.pts[i],
+                segment: i.min(self.n_segments() - 1),
+                deviation,
+                deviation_now,
+            })
+    }
+
     /// The closest point to `q` on the whole chain (squared distance, segment).
     fn project_all(&self, q: DVec3) -> (f64, usize) {
         (0..self.n_segments())
@@ -140,6 +203,15 @@ impl Chain {
             })
             .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a })
     }
+}
+
+/// A chain vertex's better place ([`Chain::chord_fit`]).
+struct ChordFit {
+    point: DVec3,
+    segment: usize,
+    /// The largest distance of the chain from the two chords there, and where the vertex is.
+    deviation: f64,
+    deviation_now: f64,
 }
 
 /// The point of segment [a, b] closest to q (a for a degenerate segment).
@@ -321,6 +393,11 @@ fn newell(p: &[DVec3], f: &[u32]) -> DVec3 {
 }
 
 fn min_corner_deg(p: &[DVec3], f: &[u32]) -> f64 {
+    corner_range_deg(p, f)[0]
+}
+
+/// The smallest and the largest corner angle of a face (degrees).
+fn corner_range_deg(p: &[DVec3], f: &[u32]) -> [f64; 2] {
     let n = f.len();
     (0..n)
         .map(|k| {
@@ -330,7 +407,7 @@ fn min_corner_deg(p: &[DVec3], f: &[u32]) -> f64 {
             let ang = (c - a).angle_between(b - a).to_degrees();
             if ang.is_finite() { ang } else { 0.0 }
         })
-        .fold(f64::INFINITY, f64::min)
+        .fold([f64::INFINITY, 0.0], |r, a| [r[0].min(a), r[1].max(a)])
 }
 
 /// Relaxes the vertices of `remesh` tangentially on `input` (see the module docs).
@@ -506,9 +583,13 @@ pub fn relax_holding(
             (list.len() == 2).then(|| [list[0], list[1]])
         })
         .collect();
+    // Those with one neighbour on their chain may sit next to where the chain ends (a crease
+    // fading out): they move onto that end below.
+    let mut ending: Vec<Option<u32>> = vec![None; n];
     for v in 0..n {
-        if matches!(kind[v], Kind::Slide(_)) && chain_nbrs[v].is_none() {
+        if let (Kind::Slide(c), None) = (kind[v], chain_nbrs[v]) {
             kind[v] = Kind::Fixed;
+            ending[v] = Some(c);
         }
     }
     let mut stats = RelaxStats {
@@ -526,6 +607,17 @@ pub fn relax_holding(
     // Iterations per set of tangent frames (a factorization each): the planes turn as the
     // vertices move, and a fit in stale planes stops short (docs/remesh.md).
     const REFRAME: usize = 3;
+    // Halvings of a vertex's step before it is put back where it was.
+    const STEP_HALVINGS: usize = 3;
+    // A chain vertex moves onto a bend of its chain when that at least halves the largest
+    // distance of the chain from the chords to its two neighbours (not when that distance is
+    // under 2 % of the mean edge), keeping both chords at least 0.35 mean edges long.
+    const CHORD_GAIN: f64 = 0.5;
+    const CHORD_NEGLIGIBLE: f64 = 0.02;
+    const CHORD_MIN_LENGTH: f64 = 0.35;
+    // Corners the moves onto bends keep to, where they were (the remesh issue's range).
+    const FIT_CORNERS_DEG: [f64; 2] = [30.0, 150.0];
+    const LOOSE_END_REACH: f64 = 0.25;
     let face_normal_ref = |p: &[DVec3], f: &[u32]| {
         let c = f.iter().map(|&v| p[v as usize]).sum::<DVec3>() / f.len() as f64;
         let r = surface.project(c);
@@ -592,28 +684,34 @@ pub fn relax_holding(
         let Some(fitted) = system.step(&pos, faces, &ideal) else {
             break;
         };
-        let updates: Vec<(DVec3, u32)> = (0..n)
-            .into_par_iter()
-            .map(|v| {
-                let (p, q) = (pos[v], fitted[v]);
-                match kind[v] {
-                    Kind::Fixed => (p, seg[v]),
-                    Kind::Slide(c) => {
-                        let ch = &chains.chains[c as usize];
-                        let (np, s) = ch.project_near(q, seg[v] as usize, 2.0 * (q - p).length());
-                        (np, s as u32)
-                    }
-                    Kind::Free if q.is_finite() => (surface.closest(q).0, 0),
-                    Kind::Free => (p, 0),
+        // Vertex v's step scaled by `t`, on its chain or the surface.
+        let place = |from: &[DVec3], v: usize, t: f64| -> (DVec3, u32) {
+            let p = from[v];
+            let q = p + (fitted[v] - p) * t;
+            match kind[v] {
+                Kind::Fixed => (p, seg[v]),
+                Kind::Slide(c) => {
+                    let ch = &chains.chains[c as usize];
+                    let (np, s) = ch.project_near(q, seg[v] as usize, 2.0 * (q - p).length());
+                    (np, s as u32)
                 }
-            })
+                Kind::Free if q.is_finite() => (surface.closest(q).0, 0),
+                Kind::Free => (p, 0),
+            }
+        };
+        let mut updates: Vec<(DVec3, u32)> = (0..n)
+            .into_par_iter()
+            .map(|v| place(&pos, v, 1.0))
             .collect();
         let old = pos.clone();
         let mut reverted = vec![false; n];
+        let mut scale = vec![1.0f64; n];
         for v in 0..n {
             pos[v] = updates[v].0;
         }
-        // Put back the vertices of faces made worse, until none is.
+        // Shorten the steps of the vertices of faces made worse (halved up to
+        // `STEP_HALVINGS` times, then put back), until no face is worse: a region whose whole
+        // step would fold a face still moves part of the way.
         let mut check: Vec<u32> = (0..faces.len() as u32).collect();
         let mut new_state = state.clone();
         while !check.is_empty() {
@@ -629,17 +727,27 @@ pub fn relax_holding(
                 if worse {
                     for &v in &faces[fi as usize] {
                         if !reverted[v as usize] && pos[v as usize] != old[v as usize] {
-                            reverted[v as usize] = true;
                             bad_vertices.push(v);
                         }
                     }
                 }
             }
+            bad_vertices.sort_unstable();
+            bad_vertices.dedup();
             let mut next: Vec<u32> = Vec::new();
             for &v in &bad_vertices {
-                pos[v as usize] = old[v as usize];
-                stats.rejected += 1;
-                next.extend_from_slice(&vertex_faces[v as usize]);
+                let v = v as usize;
+                scale[v] *= 0.5;
+                if scale[v] < 0.5f64.powi(STEP_HALVINGS as i32) {
+                    pos[v] = old[v];
+                    reverted[v] = true;
+                    stats.rejected += 1;
+                } else {
+                    let (p, s) = place(&old, v, scale[v]);
+                    pos[v] = p;
+                    updates[v].1 = s;
+                }
+                next.extend_from_slice(&vertex_faces[v]);
             }
             next.sort_unstable();
             next.dedup();
@@ -652,6 +760,121 @@ pub fn relax_holding(
             }
         }
     }
+    // Moves vertex v to `to` unless a face of it gets worse (as in the iterations) or gets a
+    // corner outside [30°, 150°] further out than its corners were.
+    let try_move = |pos: &mut Vec<DVec3>,
+                    state: &mut Vec<(f64, f64)>,
+                    v: usize,
+                    to: DVec3,
+                    keep_corners: bool| {
+        let fs = &vertex_faces[v];
+        let ranges = |pos: &[DVec3]| -> Vec<[f64; 2]> {
+            fs.iter()
+                .map(|&fi| corner_range_deg(pos, &faces[fi as usize]))
+                .collect()
+        };
+        let before = ranges(pos);
+        let old = pos[v];
+        pos[v] = to;
+        let after: Vec<(f64, f64)> = fs
+            .iter()
+            .map(|&fi| face_state(pos, &faces[fi as usize]))
+            .collect();
+        let widened = keep_corners
+            && before.iter().zip(ranges(pos)).any(|(b, a)| {
+                a[0] < b[0].min(FIT_CORNERS_DEG[0]) || a[1] > b[1].max(FIT_CORNERS_DEG[1])
+            });
+        let worse = widened
+            || fs.iter().zip(&after).any(|(&fi, &(cos, ang))| {
+                let (cos0, ang0) = state[fi as usize];
+                cos < cos0.min(0.2) || ang < ang0.min(angle_floor)
+            });
+        if worse {
+            pos[v] = old;
+            return false;
+        }
+        for (&fi, &s) in fs.iter().zip(&after) {
+            state[fi as usize] = s;
+        }
+        true
+    };
+    // Vertices beside a loose end of their chain (an end no other chain shares: a crease
+    // fading out) move onto it when it is within a quarter of an edge: the edge beyond runs
+    // on along the line, and the chain is followed to its end. A short step, so only the
+    // iterations' guard applies (fandisk's crease ends sit among corners of 150°–155°).
+    let mut ends_at: HashMap<usize, usize> = HashMap::new();
+    for ch in chains.chains.iter().filter(|ch| !ch.closed) {
+        for u in [ch.verts[0], ch.verts[ch.verts.len() - 1]] {
+            *ends_at.entry(u).or_default() += 1;
+        }
+    }
+    for v in 0..n {
+        let Some(c) = ending[v] else { continue };
+        let ch = &chains.chains[c as usize];
+        if ch.closed {
+            continue;
+        }
+        let loose = [0, ch.n_segments()]
+            .into_iter()
+            .filter(|&i| ends_at.get(&ch.verts[i]) == Some(&1))
+            .map(|i| ((ch.pts[i] - pos[v]).length(), i))
+            .filter(|&(d, _)| d > 0.0 && d <= LOOSE_END_REACH * rest)
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        let Some((_, i)) = loose else { continue };
+        if try_move(&mut pos, &mut state, v, ch.pts[i], false) {
+            stats.fitted += 1;
+        }
+    }
+    // Sliding vertices onto the chain's bends, where their chords follow it better.
+    for v in 0..n {
+        let (Kind::Slide(c), Some(nbrs)) = (kind[v], chain_nbrs[v]) else {
+            continue;
+        };
+        if cancel() {
+            break;
+        }
+        let ch = &chains.chains[c as usize];
+        let at = |w: u32| -> Option<usize> {
+            match kind[w as usize] {
+                Kind::Slide(_) => Some(seg[w as usize] as usize),
+                // a fixed neighbour on the same chain is one of its ends
+                _ => {
+                    let Some(Origin::Vertex(u)) = remesh.origins.get(w as usize) else {
+                        return None;
+                    };
+                    let u = *u as usize;
+                    let ns = ch.n_segments();
+                    match (u == ch.verts[0], u == ch.verts[ns]) {
+                        (true, true) => Some(if 2 * (seg[v] as usize) < ns { 0 } else { ns }),
+                        (true, false) => Some(0),
+                        (false, true) => Some(ns),
+                        _ => None,
+                    }
+                }
+            }
+        };
+        let (Some(la), Some(lb)) = (at(nbrs[0]), at(nbrs[1])) else {
+            continue;
+        };
+        let Some(fit) = ch.chord_fit(
+            [pos[nbrs[0] as usize], pos[nbrs[1] as usize]],
+            [la, lb],
+            pos[v],
+            seg[v] as usize,
+            CHORD_MIN_LENGTH * rest,
+        ) else {
+            continue;
+        };
+        if fit.deviation >= CHORD_GAIN * fit.deviation_now
+            || fit.deviation_now < CHORD_NEGLIGIBLE * rest
+        {
+            continue;
+        }
+        if try_move(&mut pos, &mut state, v, fit.point, true) {
+            seg[v] = fit.segment as u32;
+            stats.fitted += 1;
+        }
+    }
     for v in 0..n {
         if pos[v] != start[v] {
             stats.moved += 1;
@@ -660,4 +883,57 @@ pub fn relax_holding(
     }
     remesh.positions = pos;
     stats
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn chain(points: &[[f64; 2]], closed: bool) -> Chain {
+        let mut pts: Vec<DVec3> = points.iter().map(|p| DVec3::new(p[0], p[1], 0.0)).collect();
+        if closed {
+            pts.push(pts[0]);
+        }
+        Chain {
+            verts: (0..pts.len()).collect(),
+            pts,
+            closed,
+            boundary: false,
+        }
+    }
+
+    #[test]
+    fn a_chain_vertex_moves_onto_the_bend_its_chord_cuts() {
+        // An L: the vertex at (1.5, 0) between neighbours at (0.5, 0) and (2, 1.5) cuts the
+        // corner at (2, 0) by 0.47; on the corner both chords run along the chain.
+        let ch = chain(
+            &[[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [2.0, 1.0], [2.0, 2.0]],
+            false,
+        );
+        let ends = [DVec3::new(0.5, 0.0, 0.0), DVec3::new(2.0, 1.5, 0.0)];
+        let fit = ch
+            .chord_fit(ends, [0, 3], DVec3::new(1.5, 0.0, 0.0), 1, 0.1)
+            .expect("a point qualifies");
+        assert!((fit.deviation_now - 0.5 * 1.5 / 2.5f64.sqrt()).abs() < 1e-12);
+        assert_eq!(fit.point, DVec3::new(2.0, 0.0, 0.0));
+        assert_eq!((fit.segment, fit.deviation), (2, 0.0));
+        // Every point between the neighbours is within 1.6 of one of them: none qualifies.
+        assert!(
+            ch.chord_fit(ends, [0, 3], DVec3::new(1.5, 0.0, 0.0), 1, 1.6)
+                .is_none()
+        );
+    }
+
+    #[test]
+    fn points_between_go_the_short_way_round_a_closed_chain() {
+        let ch = chain(&[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], true);
+        assert_eq!(ch.points_between(3, 1), vec![0, 1]);
+        // a tie goes forward
+        assert_eq!(ch.points_between(1, 3), vec![2, 3]);
+        assert_eq!(ch.points_between(0, 3), vec![0]);
+        assert_eq!(ch.points_between(0, 1), vec![1]);
+        let open = chain(&[[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]], false);
+        assert_eq!(open.points_between(2, 0), vec![1, 2]);
+        assert!(open.points_between(1, 1).is_empty());
+    }
 }
