@@ -21,9 +21,14 @@
 //!
 //! After each step, faces that would flip against the input (their Newell normal against the
 //! input's normal at the closest point to the face centroid, with a margin) or whose smallest
-//! corner angle would drop below `min(previous, min_angle_deg)` have their vertices put back;
-//! repeated until no face is made worse. So no face flips that was not flipped before, and the
-//! smallest corner angle of the mesh never decreases.
+//! corner angle would drop below `min(previous, min_angle_deg)` have their vertices' steps
+//! halved, up to three times, then put back; repeated until no face is made worse. So no face
+//! flips that was not flipped before, and the smallest corner angle of the mesh never
+//! decreases.
+//!
+//! Last, under the same guard, chain vertices move onto an input vertex of their chain between
+//! their chain neighbours where the two edges then follow the chain closer (a crease bending
+//! within a cell), and vertices beside a loose end of a chain (a crease fading out) onto it.
 
 use std::collections::HashMap;
 
@@ -81,8 +86,8 @@ pub struct RelaxStats {
     pub free: usize,
     /// Vertex steps put back because a face would have flipped or degenerated.
     pub rejected: usize,
-    /// Chain vertices moved onto a bend of their chain at the end, so that the edges to their
-    /// chain neighbours follow it closer.
+    /// Chain vertices moved after the iterations onto a bend of their chain (the edges to
+    /// their chain neighbours then follow it closer) or onto a loose end of it.
     pub fitted: usize,
     pub iterations: usize,
 }
