@@ -616,9 +616,9 @@ pub fn relax_holding(
     const STEP_HALVINGS: usize = 3;
     // A chain vertex moves onto a bend of its chain when that at least halves the largest
     // distance of the chain from the chords to its two neighbours (not when that distance is
-    // under 2 % of the mean edge), keeping both chords at least 0.35 mean edges long.
+    // under 5 % of the mean edge), keeping both chords at least 0.35 mean edges long.
     const CHORD_GAIN: f64 = 0.5;
-    const CHORD_NEGLIGIBLE: f64 = 0.02;
+    const CHORD_NEGLIGIBLE: f64 = 0.05;
     const CHORD_MIN_LENGTH: f64 = 0.35;
     // Corners the moves onto bends keep to, where they were (the remesh issue's range).
     const FIT_CORNERS_DEG: [f64; 2] = [30.0, 150.0];
