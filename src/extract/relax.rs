@@ -89,6 +89,9 @@ pub struct RelaxStats {
     /// Chain vertices moved after the iterations onto a bend of their chain (the edges to
     /// their chain neighbours then follow it closer) or onto a loose end of it.
     pub fitted: usize,
+    /// Chain vertices slid after the iterations to bring the corners around them nearer to
+    /// square (a boundary the grid meets obliquely).
+    pub evened: usize,
     pub iterations: usize,
 }
 
@@ -153,6 +156,29 @@ impl Chain {
             (to, ns - fwd)
         };
         (1..=count).map(|k| (start + k) % ns).collect()
+    }
+
+    /// Places on the chain between locations `from` and `to` through `at` (the chain points
+    /// strictly between, and the quarter points of the segments at them), with their segment.
+    fn places_between(&self, from: usize, at: usize, to: usize) -> Vec<(DVec3, usize)> {
+        let ns = self.n_segments();
+        let mut points = self.points_between(from, at);
+        points.extend(self.points_between(at, to));
+        let mut places = Vec::new();
+        for &i in &points {
+            places.push((self.pts[i], i.min(ns - 1)));
+            let before = if self.closed {
+                Some((i + ns - 1) % ns)
+            } else {
+                i.checked_sub(1)
+            };
+            for j in [before, Some(i)].into_iter().flatten().filter(|&j| j < ns) {
+                for t in [0.25, 0.5, 0.75] {
+                    places.push((self.pts[j].lerp(self.pts[j + 1], t), j));
+                }
+            }
+        }
+        places
     }
 
     /// The largest distance of the chain points strictly between locations `from` and `to`
@@ -397,6 +423,21 @@ fn newell(p: &[DVec3], f: &[u32]) -> DVec3 {
     n
 }
 
+/// How far a face's corners are from square: degrees outside [30°, 150°] ten times, plus
+/// degrees outside [45°, 135°].
+fn corner_penalty(p: &[DVec3], f: &[u32]) -> f64 {
+    let n = f.len();
+    (0..n)
+        .map(|k| {
+            let a = p[f[k] as usize];
+            let b = p[f[(k + 1) % n] as usize];
+            let c = p[f[(k + n - 1) % n] as usize];
+            let t = (c - a).angle_between(b - a).to_degrees();
+            10.0 * ((30.0 - t).max(0.0) + (t - 150.0).max(0.0)) + ((t - 90.0).abs() - 45.0).max(0.0)
+        })
+        .sum()
+}
+
 fn min_corner_deg(p: &[DVec3], f: &[u32]) -> f64 {
     corner_range_deg(p, f)[0]
 }
@@ -623,6 +664,7 @@ pub fn relax_holding(
     // Corners the moves onto bends keep to, where they were (the remesh issue's range).
     const FIT_CORNERS_DEG: [f64; 2] = [30.0, 150.0];
     const LOOSE_END_REACH: f64 = 0.25;
+    const CORNER_PASSES: usize = 2;
     let face_normal_ref = |p: &[DVec3], f: &[u32]| {
         let c = f.iter().map(|&v| p[v as usize]).sum::<DVec3>() / f.len() as f64;
         let r = surface.project(c);
@@ -830,15 +872,9 @@ pub fn relax_holding(
             stats.fitted += 1;
         }
     }
-    // Sliding vertices onto the chain's bends, where their chords follow it better.
-    for v in 0..n {
-        let (Kind::Slide(c), Some(nbrs)) = (kind[v], chain_nbrs[v]) else {
-            continue;
-        };
-        if cancel() {
-            break;
-        }
-        let ch = &chains.chains[c as usize];
+    // Where a sliding vertex v's chain neighbours are on its chain (segment locations).
+    let neighbour_locations = |seg: &[u32], v: usize, ch: &Chain| -> Option<[usize; 2]> {
+        let nbrs = chain_nbrs[v]?;
         let at = |w: u32| -> Option<usize> {
             match kind[w as usize] {
                 Kind::Slide(_) => Some(seg[w as usize] as usize),
@@ -858,7 +894,18 @@ pub fn relax_holding(
                 }
             }
         };
-        let (Some(la), Some(lb)) = (at(nbrs[0]), at(nbrs[1])) else {
+        Some([at(nbrs[0])?, at(nbrs[1])?])
+    };
+    // Sliding vertices onto the chain's bends, where their chords follow it better.
+    for v in 0..n {
+        let (Kind::Slide(c), Some(nbrs)) = (kind[v], chain_nbrs[v]) else {
+            continue;
+        };
+        if cancel() {
+            break;
+        }
+        let ch = &chains.chains[c as usize];
+        let Some([la, lb]) = neighbour_locations(&seg, v, ch) else {
             continue;
         };
         let Some(fit) = ch.chord_fit(
@@ -878,6 +925,64 @@ pub fn relax_holding(
         if try_move(&mut pos, &mut state, v, fit.point, true) {
             seg[v] = fit.segment as u32;
             stats.fitted += 1;
+        }
+    }
+    // Sliding vertices with corners far from square around them (where the grid meets an
+    // unaligned boundary obliquely) slide along their chain, between their chain neighbours, to
+    // where those corners are least far out (corners outside [30°, 150°] weigh ten times those
+    // outside [45°, 135°]), as long as the chain stays as close to the chords to them. Two
+    // passes, as each move changes its neighbours' corners.
+    let vertex_penalty = |pos: &[DVec3], v: usize| -> f64 {
+        vertex_faces[v]
+            .iter()
+            .map(|&fi| corner_penalty(pos, &faces[fi as usize]))
+            .sum()
+    };
+    for v in (0..CORNER_PASSES).flat_map(|_| 0..n) {
+        let (Kind::Slide(c), Some(nbrs)) = (kind[v], chain_nbrs[v]) else {
+            continue;
+        };
+        if cancel() {
+            break;
+        }
+        let now = vertex_penalty(&pos, v);
+        if now <= 0.0 {
+            continue;
+        }
+        let ch = &chains.chains[c as usize];
+        let Some([la, lb]) = neighbour_locations(&seg, v, ch) else {
+            continue;
+        };
+        let ends = [pos[nbrs[0] as usize], pos[nbrs[1] as usize]];
+        // keep a quarter of an edge from either neighbour
+        let room = [0, 1].map(|k| 0.25 * (ends[k] - pos[v]).length().min(rest));
+        // and follow the chain as closely as it does (or within the chord fit's threshold)
+        let deviation = |q: DVec3, s: usize| {
+            ch.chord_deviation(ends[0], q, la, s)
+                .max(ch.chord_deviation(q, ends[1], s, lb))
+        };
+        let allowed = deviation(pos[v], seg[v] as usize).max(CHORD_NEGLIGIBLE * rest);
+        let old = pos[v];
+        let mut best = (now - 1e-6, None);
+        for (q, s) in ch.places_between(la, seg[v] as usize, lb) {
+            if (q - ends[0]).length() < room[0]
+                || (q - ends[1]).length() < room[1]
+                || deviation(q, s) > allowed
+            {
+                continue;
+            }
+            pos[v] = q;
+            let p = vertex_penalty(&pos, v);
+            if p < best.0 {
+                best = (p, Some((q, s)));
+            }
+        }
+        pos[v] = old;
+        if let (_, Some((q, s))) = best
+            && try_move(&mut pos, &mut state, v, q, false)
+        {
+            seg[v] = s as u32;
+            stats.evened += 1;
         }
     }
     for v in 0..n {
