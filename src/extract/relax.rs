@@ -59,6 +59,9 @@ pub struct RelaxOptions {
     /// Corner angles (degrees) are kept at least at `min(what they were, max(this, the
     /// remesh's smallest angle))`: no corner drops below the smallest one of the input.
     pub min_angle_deg: f64,
+    /// After the iterations, slide chain vertices to bring the corners around them nearer to
+    /// square (`RelaxStats::evened`).
+    pub even_corners: bool,
 }
 
 impl Default for RelaxOptions {
@@ -69,6 +72,7 @@ impl Default for RelaxOptions {
             size_weight: 0.75,
             corner_angle_deg: 30.0,
             min_angle_deg: 15.0,
+            even_corners: true,
         }
     }
 }
@@ -938,7 +942,8 @@ pub fn relax_holding(
             .map(|&fi| corner_penalty(pos, &faces[fi as usize]))
             .sum()
     };
-    for v in (0..CORNER_PASSES).flat_map(|_| 0..n) {
+    let passes = if opts.even_corners { CORNER_PASSES } else { 0 };
+    for v in (0..passes).flat_map(|_| 0..n) {
         let (Kind::Slide(c), Some(nbrs)) = (kind[v], chain_nbrs[v]) else {
             continue;
         };
