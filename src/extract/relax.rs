@@ -427,16 +427,23 @@ fn newell(p: &[DVec3], f: &[u32]) -> DVec3 {
     n
 }
 
+/// A face's corner angles (degrees; 0 at a degenerate corner).
+fn corner_angles_deg<'a>(p: &'a [DVec3], f: &'a [u32]) -> impl Iterator<Item = f64> + 'a {
+    let n = f.len();
+    (0..n).map(move |k| {
+        let a = p[f[k] as usize];
+        let b = p[f[(k + 1) % n] as usize];
+        let c = p[f[(k + n - 1) % n] as usize];
+        let ang = (c - a).angle_between(b - a).to_degrees();
+        if ang.is_finite() { ang } else { 0.0 }
+    })
+}
+
 /// How far a face's corners are from square: degrees outside [30°, 150°] ten times, plus
 /// degrees outside [45°, 135°].
 fn corner_penalty(p: &[DVec3], f: &[u32]) -> f64 {
-    let n = f.len();
-    (0..n)
-        .map(|k| {
-            let a = p[f[k] as usize];
-            let b = p[f[(k + 1) % n] as usize];
-            let c = p[f[(k + n - 1) % n] as usize];
-            let t = (c - a).angle_between(b - a).to_degrees();
+    corner_angles_deg(p, f)
+        .map(|t| {
             10.0 * ((30.0 - t).max(0.0) + (t - 150.0).max(0.0)) + ((t - 90.0).abs() - 45.0).max(0.0)
         })
         .sum()
@@ -448,16 +455,7 @@ fn min_corner_deg(p: &[DVec3], f: &[u32]) -> f64 {
 
 /// The smallest and the largest corner angle of a face (degrees).
 fn corner_range_deg(p: &[DVec3], f: &[u32]) -> [f64; 2] {
-    let n = f.len();
-    (0..n)
-        .map(|k| {
-            let a = p[f[k] as usize];
-            let b = p[f[(k + 1) % n] as usize];
-            let c = p[f[(k + n - 1) % n] as usize];
-            let ang = (c - a).angle_between(b - a).to_degrees();
-            if ang.is_finite() { ang } else { 0.0 }
-        })
-        .fold([f64::INFINITY, 0.0], |r, a| [r[0].min(a), r[1].max(a)])
+    corner_angles_deg(p, f).fold([f64::INFINITY, 0.0], |r, a| [r[0].min(a), r[1].max(a)])
 }
 
 /// Relaxes the vertices of `remesh` tangentially on `input` (see the module docs).
