@@ -166,10 +166,8 @@ impl Chain {
     /// strictly between, and the quarter points of the segments at them), with their segment.
     fn places_between(&self, from: usize, at: usize, to: usize) -> Vec<(DVec3, usize)> {
         let ns = self.n_segments();
-        let mut points = self.points_between(from, at);
-        points.extend(self.points_between(at, to));
         let mut places = Vec::new();
-        for &i in &points {
+        for i in self.points_around(from, at, to) {
             places.push((self.pts[i], i.min(ns - 1)));
             let before = if self.closed {
                 Some((i + ns - 1) % ns)
@@ -183,6 +181,13 @@ impl Chain {
             }
         }
         places
+    }
+
+    /// Chain points strictly between locations `from` and `to`, by way of `at`.
+    fn points_around(&self, from: usize, at: usize, to: usize) -> Vec<usize> {
+        let mut points = self.points_between(from, at);
+        points.extend(self.points_between(at, to));
+        points
     }
 
     /// The largest distance of the chain points strictly between locations `from` and `to`
@@ -211,9 +216,7 @@ impl Chain {
                 .max(self.chord_deviation(p, ends[1], loc, locs[1]))
         };
         let deviation_now = deviation_at(now, seg);
-        let mut candidates = self.points_between(locs[0], seg);
-        candidates.extend(self.points_between(seg, locs[1]));
-        candidates
+        self.points_around(locs[0], seg, locs[1])
             .into_iter()
             .filter(|&i| {
                 let p = self.pts[i];
@@ -822,7 +825,12 @@ pub fn relax_holding(
                 .map(|&fi| corner_range_deg(pos, &faces[fi as usize]))
                 .collect()
         };
-        let before = ranges(pos);
+        // only when the corners are kept
+        let before = if keep_corners {
+            ranges(pos)
+        } else {
+            Vec::new()
+        };
         let old = pos[v];
         pos[v] = to;
         let after: Vec<(f64, f64)> = fs
