@@ -58,6 +58,9 @@ struct Scratch {
     /// them, so the sweeps cannot cycle (the released weights change the estimate between
     /// visits, and a singularity could otherwise step back and forth until MAX_SWEEPS).
     left: Vec<bool>,
+    /// Vertices of geometric curves: a singularity there stays (the design put it on the curve,
+    /// a corner of its line, eq. 4.9) and none moves onto one.
+    pinned: Vec<bool>,
 }
 
 pub(crate) fn relax(
@@ -75,6 +78,7 @@ pub(crate) fn relax(
         local: vec![u32::MAX; mesh.n_faces()],
         search: PathSearch::new(mesh.n_vertices()),
         left: vec![false; mesh.n_vertices()],
+        pinned: pinned(&mesh, state),
     };
     let ctx = Ctx {
         base,
@@ -107,10 +111,16 @@ pub(crate) fn relax(
             // the exact curl, within a budget of local-step factorizations.
             let singular: Vec<usize> = best.singularities.keys().copied().collect();
             'singular: for p in singular {
+                if scratch.pinned[p] {
+                    continue;
+                }
                 let mesh = base.mesh();
                 let neighbours: Vec<usize> = mesh.outgoing(p).map(|h| mesh.to(h)).collect();
                 for q in neighbours {
-                    if mesh.is_boundary_vertex(q) || best.singularities.contains_key(&q) {
+                    if mesh.is_boundary_vertex(q)
+                        || best.singularities.contains_key(&q)
+                        || scratch.pinned[q]
+                    {
                         continue;
                     }
                     if budget == 0 || cancel() {
@@ -136,7 +146,10 @@ pub(crate) fn relax(
                 if cancel() {
                     return Err(EditError::Cancelled);
                 }
-                if !(best.singularities.contains_key(&p) && best.singularities.contains_key(&q)) {
+                if !(best.singularities.contains_key(&p) && best.singularities.contains_key(&q))
+                    || scratch.pinned[p]
+                    || scratch.pinned[q]
+                {
                     continue;
                 }
                 let Ok(mv) = base.plan(&best, &mut scratch.search, p, q) else {
@@ -162,6 +175,19 @@ pub(crate) fn relax(
         moves,
         merges,
     })
+}
+
+/// The vertices of the state's geometric curves ([`Scratch::pinned`]).
+fn pinned(mesh: &crate::mesh::TriMesh, state: &EditState) -> Vec<bool> {
+    let mut pinned = vec![false; mesh.n_vertices()];
+    for c in state.curves.values() {
+        if c.kind == crate::constraint::CurveKind::Geometric {
+            for &v in &c.vertices {
+                pinned[v] = true;
+            }
+        }
+    }
+    pinned
 }
 
 /// Takes `candidate` as the best state when its exact curl is lower than the best's.
@@ -246,7 +272,7 @@ impl Ctx<'_> {
             let mut moved = false;
             let singular: Vec<usize> = st.singularities.keys().copied().collect();
             for p in singular {
-                if blocked[p] {
+                if blocked[p] || scratch.pinned[p] {
                     continue;
                 }
                 let Some((q, new_theta, mv)) = self.best_move(&st, &theta, &w, p, scratch)? else {
@@ -295,6 +321,7 @@ impl Ctx<'_> {
                 !mesh.is_boundary_vertex(q)
                     && !st.singularities.contains_key(&q)
                     && !scratch.left[q]
+                    && !scratch.pinned[q]
             })
             .collect();
         if candidates.is_empty() {
