@@ -1159,6 +1159,81 @@ fn a_raw_cad_cylinder_maps_once_remeshed() {
     assert!(lo > 45.0 && hi < 135.0, "corners {lo:.1}°–{hi:.1}°");
 }
 
+/// A low-poly mesh far coarser than the grid (an octahedron: 6 vertices, no needles) is
+/// remeshed by `solve` too: kept as it is, its faces hold no grid point inside and the map
+/// folds or covers none; remeshed, every crease is a grid line and nothing folds.
+#[test]
+fn cli_remeshes_low_poly_meshes() {
+    let dir = tempfile::tempdir().unwrap();
+    let p: Vec<glam::DVec3> = [
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+    ]
+    .iter()
+    .map(|&a| glam::DVec3::from_array(a))
+    .collect();
+    let faces: [[u32; 3]; 8] = [
+        [0, 2, 4],
+        [2, 1, 4],
+        [1, 3, 4],
+        [3, 0, 4],
+        [2, 0, 5],
+        [1, 2, 5],
+        [3, 1, 5],
+        [0, 3, 5],
+    ];
+    let part = dir.path().join("octahedron.obj");
+    quadcover::io::write_obj(&part, &quadcover::io::ObjOutput::new(&p, &faces[..])).unwrap();
+    let exe = env!("CARGO_BIN_EXE_quadcover");
+    let run = |extra: &[&str], report: &std::path::Path| {
+        std::process::Command::new(exe)
+            .args(["solve", part.to_str().unwrap(), "--features", "40"])
+            .args(extra)
+            .arg("--out")
+            .arg(dir.path().join("uv.obj"))
+            .arg("--report")
+            .arg(report)
+            .output()
+            .unwrap()
+    };
+    let report = dir.path().join("r.json");
+    let out = run(&[], &report);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("far coarser than the grid"), "{stderr}");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(r["prepared_input"]["input_vertices"], 6);
+    assert_eq!(r["prepared_input"]["coarse"], true);
+    assert_eq!(r["flipped_faces"], 0);
+    assert_eq!(r["singularities"].as_array().unwrap().len(), 8);
+    // Every crease of the remeshed octahedron runs along a parameter line (the curves' largest
+    // offset from their lattice line).
+    let curves = r["curves"].as_array().unwrap();
+    assert!(curves.len() >= 12, "{}", curves.len());
+    assert!(
+        curves
+            .iter()
+            .all(|c| c["max_offset"].as_f64().unwrap() < 1e-6)
+    );
+
+    let kept = dir.path().join("k.json");
+    let out = run(&["--keep-input"], &kept);
+    let folds = out.status.success().then(|| {
+        let k: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&kept).unwrap()).unwrap();
+        k["flipped_faces"].as_u64().unwrap()
+    });
+    assert!(
+        folds.is_none_or(|f| f > 0),
+        "kept as it is, the octahedron maps without a fold: the test shows nothing"
+    );
+}
+
 /// The command line on a raw CAD tessellation: `solve` remeshes it by itself (REPORT.json's
 /// `prepared_input`, the output OBJ is the remeshed mesh) and maps it without a fold;
 /// `--keep-input` keeps the input and folds; `--prepare` with a project is refused;

@@ -21,12 +21,18 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     let loaded = load_mesh(&args.mesh)?;
     let topology = loaded.mesh.topology();
     let needles = needle_area_share(&loaded.mesh);
+    // Against the default grid (`solve` checks its own density).
+    let params = crate::edit::Settings::default().field_params();
+    let coarse =
+        crate::field::density::grid_vertices(&loaded.mesh, &params.density, params.symmetry)
+            .is_some_and(|g| crate::mesh::isotropic::too_coarse(&loaded.mesh, g));
     if args.json {
         let value = serde_json::json!({
             "file": args.mesh,
             "file_vertices": loaded.file_vertices,
             "topology": topology,
             "needle_area_share": needles,
+            "coarse": coarse,
             "warnings": loaded.report.warnings,
         });
         println!("{}", serde_json::to_string_pretty(&value)?);
@@ -49,6 +55,12 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
         println!(": a raw tessellation; `solve` remeshes it first (`quadcover prepare`)");
     } else {
         println!();
+    }
+    if coarse {
+        println!(
+            "low-poly        far fewer vertices than the default grid's: `solve` remeshes it \
+             first (`quadcover prepare`)"
+        );
     }
     let fans = crate::mesh::isotropic::fan_centres(&loaded.mesh);
     if !fans.is_empty() {

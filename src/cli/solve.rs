@@ -18,7 +18,7 @@ use crate::field::{self, Symmetry};
 use crate::io;
 use crate::mesh::TriMesh;
 use crate::mesh::isotropic::{
-    NEEDLE_AREA_SHARE, isotropic_remesh, needle_area_share, prepared_options,
+    NEEDLE_AREA_SHARE, isotropic_remesh, needle_area_share, prepared_options, too_coarse,
 };
 use crate::param;
 
@@ -179,6 +179,9 @@ struct PreparedOut {
     input_faces: usize,
     /// Share of the file's area in triangles with a corner under 10°.
     needle_area_share: f64,
+    /// Whether it was remeshed for being a low-poly mesh far coarser than the grid
+    /// (`mesh::isotropic::too_coarse`).
+    coarse: bool,
     edge_length: f64,
     ms: f64,
 }
@@ -404,7 +407,20 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let (mesh, repair) =
         TriMesh::from_soup(&soup).map_err(|e| format!("{}: {e}", mesh_path.display()))?;
     let needles = needle_area_share(&mesh);
-    let raw = needles > NEEDLE_AREA_SHARE;
+    let params = settings.field_params();
+    let grid_vertices = field::density::grid_vertices(&mesh, &params.density, params.symmetry);
+    let coarse = grid_vertices.is_some_and(|g| too_coarse(&mesh, g));
+    let raw = needles > NEEDLE_AREA_SHARE || coarse;
+    // Why the input is (or would be) remeshed, for the messages.
+    let why = if coarse {
+        format!(
+            "{} vertices, far coarser than the grid's {:.0}",
+            mesh.n_vertices(),
+            grid_vertices.unwrap_or_default()
+        )
+    } else {
+        format!("{:.0} % of its area in needles", 100.0 * needles)
+    };
     let (soup, mesh, repair, prepared_input) =
         if args.prepare || (raw && project.is_none() && args.field.is_none() && !args.keep_input) {
             // Edits name the file's vertices and a field file its faces, so with a project or a
@@ -418,9 +434,8 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             let out = isotropic_remesh(&mesh, &opts)
                 .map_err(|e| format!("{}: remeshing the input failed: {e}", mesh_path.display()))?;
             bar.line(format!(
-                "  input remeshed: {:.0} % of its area in needles; {} vertices -> {} (edge length \
-             {:.4}); --keep-input keeps it as it is",
-                100.0 * needles,
+                "  input remeshed ({why}); {} vertices -> {} (edge length {:.4}); --keep-input \
+                 keeps it as it is",
                 mesh.n_vertices(),
                 out.n_vertices(),
                 opts.edge_length
@@ -441,6 +456,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 input_vertices: soup.positions.len(),
                 input_faces: soup.triangles.len(),
                 needle_area_share: needles,
+                coarse,
                 edge_length: opts.edge_length,
                 ms: t.elapsed().as_secs_f64() * 1e3,
             };
@@ -448,11 +464,10 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         } else {
             if raw {
                 bar.line(format!(
-                "  warning: {:.0} % of the input's area is in needles (a raw tessellation?): the \
-                 map may fold; `quadcover prepare` remeshes it (kept as it is here: \
-                 --keep-input, or a project or field file, which name its vertices and faces)",
-                100.0 * needles
-            ));
+                    "  warning: the input looks like a raw tessellation ({why}): the map may \
+                     fold; `quadcover prepare` remeshes it (kept as it is here: --keep-input, or \
+                     a project or field file, which name its vertices and faces)"
+                ));
             }
             (soup, mesh, repair, None)
         };

@@ -7,8 +7,8 @@
 //! rim vertex) has neither the uniform sampling the smoothing assumes nor interior vertices for
 //! the singularities: a capped cylinder's map then folds 110 faces with conformal distortion 70.
 //! Remeshed to near-equilateral triangles first, the same part maps with no fold. [`needs_remesh`]
-//! is the test `solve` applies; `quadcover prepare` and the editor's *Remesh input* run it on
-//! request.
+//! and [`too_coarse`] (a low-poly part: faces many grid cells wide) are the tests `solve`
+//! applies; `quadcover prepare` and the editor's *Remesh input* run it on request.
 //!
 //! What is kept: edges whose dihedral angle exceeds the feature angle and boundary edges are
 //! *feature edges*. They are never flipped; they are split into feature edges; a vertex on a
@@ -32,6 +32,12 @@ pub const NEEDLE_DEG: f64 = 10.0;
 /// [`needs_remesh`]'s threshold: the share of the surface's area in needles. The shared meshes
 /// have at most 1.3 % (camelhead), raw CAD tessellations 40–100 %.
 pub const NEEDLE_AREA_SHARE: f64 = 0.2;
+
+/// [`too_coarse`]: a low-poly mesh has fewer vertices than this ...
+pub const COARSE_MAX_VERTICES: usize = 1_000;
+/// ... and this many times fewer than the grid. The shared meshes at the default density (10 000
+/// grid vertices) have 1 850 (kitten) and more: at most 5.4 times fewer.
+pub const COARSE_RATIO: f64 = 16.0;
 
 /// Vertices of a prepared input (`quadcover prepare`, `solve` on a raw tessellation, the
 /// editor's *Remesh input*) unless asked otherwise or the input has more ([`prepared_options`]):
@@ -130,6 +136,17 @@ pub fn fan_centres(mesh: &TriMesh) -> Vec<usize> {
 /// documentation): more than [`NEEDLE_AREA_SHARE`] of its area in needles.
 pub fn needs_remesh(mesh: &TriMesh) -> bool {
     needle_area_share(mesh) > NEEDLE_AREA_SHARE
+}
+
+/// Whether `mesh` is a low-poly tessellation far coarser than a grid of `grid_vertices`
+/// vertices: fewer than [`COARSE_MAX_VERTICES`] vertices, and [`COARSE_RATIO`] times fewer than
+/// the grid. The map is linear on each triangle and singularities sit on vertices, so a face
+/// many cells wide has room for neither: raw, a tetrahedron, an octahedron and a square pyramid
+/// (4–6 vertices) map to no grid point at all, a triangular prism folds 4 faces and an
+/// octagonal prism 11, with features at 40°; remeshed first, none folds.
+pub fn too_coarse(mesh: &TriMesh, grid_vertices: f64) -> bool {
+    let n = mesh.n_vertices();
+    n < COARSE_MAX_VERTICES && (n as f64) * COARSE_RATIO < grid_vertices
 }
 
 /// What a vertex may do.
