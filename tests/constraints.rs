@@ -1159,6 +1159,38 @@ fn a_raw_cad_cylinder_maps_once_remeshed() {
     assert!(lo > 45.0 && hi < 135.0, "corners {lo:.1}°–{hi:.1}°");
 }
 
+/// N = 6 on the same remeshed cylinder: the faces beside the rims carry the creases' bend in
+/// their curvature, across the rims, which is 30° off the rims' own alignment for six
+/// directions; along a round rim nothing decides whether the field turns by +30° or −30° there,
+/// and it flipped between the two (38 pairs of ±1/6 on the rims, 486 folded faces). Without
+/// that guidance near round rims: six +1/6 per cap, the rims on lattice lines, no fold.
+#[test]
+fn a_hexagonal_field_follows_round_rims() {
+    use quadcover::mesh::isotropic::{IsotropicOptions, isotropic_remesh};
+    let raw = generate::raw_cylinder(0.5, 1.2, 48);
+    let opts = IsotropicOptions::for_vertices(&raw, 6000, 35.0);
+    let mesh = std::sync::Arc::new(isotropic_remesh(&raw, &opts).unwrap());
+    let settings = Settings {
+        symmetry: 6,
+        ..Settings::default()
+    };
+    let base = Base::for_mesh(mesh, settings).unwrap();
+    let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
+    assert_eq!(state.curves.len(), 2, "the two rims");
+    let p = &solved.param;
+    let ks: Vec<f64> = p.singularities.iter().map(|s| s.index * 6.0).collect();
+    eprintln!(
+        "remeshed raw cylinder, N = 6: {} singularities, {} folds before the repair, {} after",
+        ks.len(),
+        p.flipped_faces_before_repair,
+        p.flipped_faces
+    );
+    assert_eq!(ks.len(), 12, "{ks:?}");
+    assert!(ks.iter().all(|&k| (k - 1.0).abs() < 1e-9), "{ks:?}");
+    assert_eq!(p.flipped_faces, 0);
+    check_geometric(&base, &state, &solved);
+}
+
 /// A low-poly mesh far coarser than the grid (an octahedron: 6 vertices, no needles) is
 /// remeshed by `solve` too: kept as it is, its faces hold no grid point inside and the map
 /// folds or covers none; remeshed, every crease is a grid line and nothing folds.

@@ -147,6 +147,44 @@ pub fn curves_beside<'a>(
     ids
 }
 
+/// A closed geometric curve turning by less than this at each vertex is a round rim
+/// ([`rim_faces`]): the corner angle `detect` splits curves at.
+pub const RIM_TURN_DEG: f64 = 50.0;
+
+/// The faces along round rims: closed geometric curves that turn by less than
+/// [`RIM_TURN_DEG`] at every vertex and run over interior edges only (a cylinder's or a hole's
+/// rim, a crease all round), both sides of each edge.
+/// The field drops the curvature guidance their crease's bend reaches for N = 6
+/// (`field::FieldParams::rim_aligned`).
+pub fn rim_faces<'a>(mesh: &TriMesh, curves: impl IntoIterator<Item = &'a Curve>) -> Vec<u32> {
+    let mut out = Vec::new();
+    let limit = RIM_TURN_DEG.to_radians().cos();
+    for c in curves {
+        if c.kind != CurveKind::Geometric || !c.closed || c.vertices.len() < 3 {
+            continue;
+        }
+        let segments = c.segments();
+        let dir =
+            |(a, b): (usize, usize)| (mesh.position(b) - mesh.position(a)).normalize_or_zero();
+        let round = (0..segments.len())
+            .all(|i| dir(segments[i]).dot(dir(segments[(i + 1) % segments.len()])) > limit);
+        // (An aligned boundary loop has no crease, and no bend in the shape operators.)
+        let faces: Option<Vec<[usize; 2]>> = segments
+            .iter()
+            .map(|&(a, b)| {
+                let h = halfedge_between(mesh, a, b)?;
+                Some([mesh.face_of(h), mesh.face_of(mesh.twin(h)?)])
+            })
+            .collect();
+        if let (true, Some(faces)) = (round, faces) {
+            out.extend(faces.iter().flatten().map(|&f| f as u32));
+        }
+    }
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
 /// A halfedge of the edge between `a` and `b` (the one from `a` to `b` when it exists; on a
 /// boundary edge only one of the two does), if they share an edge.
 pub fn halfedge_between(mesh: &TriMesh, a: usize, b: usize) -> Option<usize> {

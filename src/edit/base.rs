@@ -540,6 +540,10 @@ impl Base {
                 keep_system: true,
                 aligned: Some(aligned.clone()),
                 boundary_aligned: Some(Arc::new(along_boundary)),
+                rim_aligned: Some(Arc::new(crate::constraint::rim_faces(
+                    &self.mesh,
+                    state.curves.values(),
+                ))),
                 ..self.settings.field_params()
             };
             let field =
