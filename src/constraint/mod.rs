@@ -151,9 +151,13 @@ pub fn curves_beside<'a>(
 /// ([`rim_faces`]): the corner angle `detect` splits curves at.
 pub const RIM_TURN_DEG: f64 = 50.0;
 
+/// A round rim is a crease: its faces' normals differ by this much on average (degrees).
+pub const RIM_BEND_DEG: f64 = 20.0;
+
 /// The faces along round rims: closed geometric curves that turn by less than
-/// [`RIM_TURN_DEG`] at every vertex and run over interior edges only (a cylinder's or a hole's
-/// rim, a crease all round), both sides of each edge.
+/// [`RIM_TURN_DEG`] at every vertex and run over interior edges only, bent by
+/// [`RIM_BEND_DEG`] or more on average (a cylinder's or a hole's rim, a crease all round), both
+/// sides of each edge.
 /// The field drops the curvature guidance their crease's bend reaches for N = 6
 /// (`field::FieldParams::rim_aligned`).
 pub fn rim_faces<'a>(mesh: &TriMesh, curves: impl IntoIterator<Item = &'a Curve>) -> Vec<u32> {
@@ -176,7 +180,22 @@ pub fn rim_faces<'a>(mesh: &TriMesh, curves: impl IntoIterator<Item = &'a Curve>
                 Some([mesh.face_of(h), mesh.face_of(mesh.twin(h)?)])
             })
             .collect();
-        if let (true, Some(faces)) = (round, faces) {
+        let Some(faces) = faces.filter(|_| round) else {
+            continue;
+        };
+        // A crease: a drawn loop on a smooth surface has no bend of its own in the operators.
+        let bend = faces
+            .iter()
+            .map(|&[f, g]| {
+                let c = mesh
+                    .face_normal(f)
+                    .dot(mesh.face_normal(g))
+                    .clamp(-1.0, 1.0);
+                c.acos().to_degrees()
+            })
+            .sum::<f64>()
+            / faces.len() as f64;
+        if bend >= RIM_BEND_DEG {
             out.extend(faces.iter().flatten().map(|&f| f as u32));
         }
     }
