@@ -76,12 +76,15 @@ pub struct Design {
     pub field: Arc<FieldResult>,
     /// The alignment it was designed with (face, angle).
     pub aligned: Arc<Vec<(u32, f64)>>,
+    /// The faces along round rims it was designed with (N = 6, `FieldParams::rim_aligned`).
+    pub rims: Arc<Vec<u32>>,
 }
 
 impl PartialEq for Design {
     fn eq(&self, other: &Design) -> bool {
         Arc::ptr_eq(&self.field, &other.field)
             || (self.aligned == other.aligned
+                && self.rims == other.rims
                 && self.field.turns == other.field.turns
                 && self.field.theta == other.field.theta)
     }
@@ -517,8 +520,17 @@ impl Base {
             ),
         };
         let aligned = self.design_alignment(&state, &acute.alignments, stripes.map(|s| s.1));
-        let current: &[(u32, f64)] = state.design.as_ref().map_or(&[], |d| &d.aligned);
-        if aligned.as_slice() == current {
+        // (Only a hexagonal field is designed differently beside round rims.)
+        let rims = if self.settings.symmetry == 6 {
+            crate::constraint::rim_faces(&self.mesh, state.curves.values())
+        } else {
+            Vec::new()
+        };
+        let current = state
+            .design
+            .as_ref()
+            .map_or((&[][..], &[][..]), |d| (&d.aligned[..], &d.rims[..]));
+        if (aligned.as_slice(), rims.as_slice()) == current {
             return Ok(state);
         }
         if cancel() {
@@ -528,6 +540,7 @@ impl Base {
             None
         } else {
             let aligned = Arc::new(aligned);
+            let rims = Arc::new(rims);
             // The faces along boundary edges of geometric curves (`field::boundary_yield`).
             let on_curve = self.geometric_curve_edges(&state);
             let along_boundary: Vec<u32> = on_curve
@@ -540,10 +553,7 @@ impl Base {
                 keep_system: true,
                 aligned: Some(aligned.clone()),
                 boundary_aligned: Some(Arc::new(along_boundary)),
-                rim_aligned: Some(Arc::new(crate::constraint::rim_faces(
-                    &self.mesh,
-                    state.curves.values(),
-                ))),
+                rim_aligned: Some(rims.clone()),
                 ..self.settings.field_params()
             };
             let field =
@@ -551,6 +561,7 @@ impl Base {
             Some(Design {
                 field: Arc::new(field),
                 aligned,
+                rims,
             })
         };
         state.design = design;

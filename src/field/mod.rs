@@ -220,8 +220,9 @@ pub struct FieldParams {
     /// contradict them yield (`boundary_yield`).
     #[serde(skip)]
     pub boundary_aligned: Option<std::sync::Arc<Vec<u32>>>,
-    /// Of the `aligned` faces, those along closed curves without corners (round rims): for
-    /// N = 6 the faces their crease's bend reaches lose their curvature guidance
+    /// Of the `aligned` faces, those along round rims (closed crease curves without corners,
+    /// `constraint::rim_faces`): for N = 6 the faces their crease's bend reaches lose their
+    /// curvature guidance
     /// ([`crease_reach`]).
     #[serde(skip)]
     pub rim_aligned: Option<std::sync::Arc<Vec<u32>>>,
