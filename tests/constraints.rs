@@ -1191,6 +1191,26 @@ fn a_hexagonal_field_follows_round_rims() {
     check_geometric(&base, &state, &solved);
 }
 
+/// `quadcover solve PART --features 40 EXTRA --out DIR/uv.obj --report REPORT`.
+fn solve_with_features(
+    part: &std::path::Path,
+    dir: &std::path::Path,
+    extra: &[&str],
+    report: &std::path::Path,
+) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_quadcover"))
+        .arg("solve")
+        .arg(part)
+        .args(["--features", "40"])
+        .args(extra)
+        .arg("--out")
+        .arg(dir.join("uv.obj"))
+        .arg("--report")
+        .arg(report)
+        .output()
+        .unwrap()
+}
+
 /// A low-poly mesh far coarser than the grid (an octahedron: 6 vertices, no needles) is
 /// remeshed by `solve` too: kept as it is, its faces hold no grid point inside and the map
 /// folds or covers none; remeshed, every crease is a grid line and nothing folds.
@@ -1220,17 +1240,8 @@ fn cli_remeshes_low_poly_meshes() {
     ];
     let part = dir.path().join("octahedron.obj");
     quadcover::io::write_obj(&part, &quadcover::io::ObjOutput::new(&p, &faces[..])).unwrap();
-    let exe = env!("CARGO_BIN_EXE_quadcover");
     let run = |extra: &[&str], report: &std::path::Path| {
-        std::process::Command::new(exe)
-            .args(["solve", part.to_str().unwrap(), "--features", "40"])
-            .args(extra)
-            .arg("--out")
-            .arg(dir.path().join("uv.obj"))
-            .arg("--report")
-            .arg(report)
-            .output()
-            .unwrap()
+        solve_with_features(&part, dir.path(), extra, report)
     };
     let report = dir.path().join("r.json");
     let out = run(&[], &report);
@@ -1282,15 +1293,7 @@ fn cli_remeshes_raw_tessellations() {
     .unwrap();
     let exe = env!("CARGO_BIN_EXE_quadcover");
     let run = |extra: &[&str], report: &std::path::Path| {
-        std::process::Command::new(exe)
-            .args(["solve", part.to_str().unwrap(), "--features", "40"])
-            .args(extra)
-            .arg("--out")
-            .arg(dir.path().join("uv.obj"))
-            .arg("--report")
-            .arg(report)
-            .output()
-            .unwrap()
+        solve_with_features(&part, dir.path(), extra, report)
     };
     let report = dir.path().join("r.json");
     let out = run(&[], &report);

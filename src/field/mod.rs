@@ -619,7 +619,7 @@ pub fn closest_matchings(tr: &EdgeTransport, theta: &[f64], n: u32) -> Vec<i32> 
 /// folded 210 faces instead of none, a triangular prism's 3.
 fn crease_reach(mesh: &TriMesh, on_curve: &[bool], smoothing: usize) -> Vec<bool> {
     let mut reached = vec![false; mesh.n_vertices()];
-    let mut front: Vec<usize> = Vec::new();
+    let mut front = Vec::new();
     for f in (0..mesh.n_faces()).filter(|&f| on_curve[f]) {
         for v in mesh.face(f) {
             if !reached[v] {
@@ -628,19 +628,7 @@ fn crease_reach(mesh: &TriMesh, on_curve: &[bool], smoothing: usize) -> Vec<bool
             }
         }
     }
-    for _ in 0..smoothing {
-        let mut next = Vec::new();
-        for &v in &front {
-            for h in mesh.outgoing(v) {
-                let w = mesh.to(h);
-                if !reached[w] {
-                    reached[w] = true;
-                    next.push(w);
-                }
-            }
-        }
-        front = next;
-    }
+    mesh.mark_rings(&mut reached, front, smoothing);
     (0..mesh.n_faces())
         .map(|f| mesh.face(f).iter().any(|&v| reached[v]))
         .collect()
