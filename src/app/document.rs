@@ -280,14 +280,15 @@ fn finish_load(
     }
     // (At the default density: the document's settings come later.)
     let settings = crate::edit::Settings::default().field_params();
-    let grid = crate::field::density::grid_vertices(&mesh, &settings.density, settings.symmetry);
-    if grid.is_some_and(|g| crate::mesh::isotropic::too_coarse(&mesh, g)) {
+    if let Some(grid) =
+        crate::mesh::isotropic::too_coarse(&mesh, &settings.density, settings.symmetry)
+    {
         report.warnings.push(format!(
             "{} vertices, far fewer than the grid's {:.0}: a low-poly mesh whose faces are too \
              large for the map to bend or hold singularities inside (it will fold); File > \
              Remesh input makes an isotropic copy with the sharp features kept",
             mesh.n_vertices(),
-            grid.unwrap_or_default()
+            grid
         ));
     }
     let fans = crate::mesh::isotropic::fan_centres(&mesh).len();

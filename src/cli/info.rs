@@ -23,9 +23,8 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     let needles = needle_area_share(&loaded.mesh);
     // Against the default grid (`solve` checks its own density).
     let params = crate::edit::Settings::default().field_params();
-    let coarse =
-        crate::field::density::grid_vertices(&loaded.mesh, &params.density, params.symmetry)
-            .is_some_and(|g| crate::mesh::isotropic::too_coarse(&loaded.mesh, g));
+    let coarse = crate::mesh::isotropic::too_coarse(&loaded.mesh, &params.density, params.symmetry)
+        .is_some();
     if args.json {
         let value = serde_json::json!({
             "file": args.mesh,

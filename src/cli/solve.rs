@@ -408,15 +408,14 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         TriMesh::from_soup(&soup).map_err(|e| format!("{}: {e}", mesh_path.display()))?;
     let needles = needle_area_share(&mesh);
     let params = settings.field_params();
-    let grid_vertices = field::density::grid_vertices(&mesh, &params.density, params.symmetry);
-    let coarse = grid_vertices.is_some_and(|g| too_coarse(&mesh, g));
-    let raw = needles > NEEDLE_AREA_SHARE || coarse;
+    // The grid's vertex count when the input is far coarser.
+    let coarse = too_coarse(&mesh, &params.density, params.symmetry);
+    let raw = needles > NEEDLE_AREA_SHARE || coarse.is_some();
     // Why the input is (or would be) remeshed, for the messages.
-    let why = if coarse {
+    let why = if let Some(grid) = coarse {
         format!(
-            "{} vertices, far coarser than the grid's {:.0}",
-            mesh.n_vertices(),
-            grid_vertices.unwrap_or_default()
+            "{} vertices, far coarser than the grid's {grid:.0}",
+            mesh.n_vertices()
         )
     } else {
         format!("{:.0} % of its area in needles", 100.0 * needles)
@@ -456,7 +455,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 input_vertices: soup.positions.len(),
                 input_faces: soup.triangles.len(),
                 needle_area_share: needles,
-                coarse,
+                coarse: coarse.is_some(),
                 edge_length: opts.edge_length,
                 ms: t.elapsed().as_secs_f64() * 1e3,
             };

@@ -133,9 +133,18 @@ pub fn grid_size(
 }
 
 /// About how many vertices a grid of `density` has on `mesh` (uniform scale): the target, or
-/// the area over the cell area (`None` for an invalid density or a mesh of zero area).
+/// the area over the cell area (`None` where [`grid_size`] fails: no positive size or target,
+/// or a mesh without area).
 pub fn grid_vertices(mesh: &TriMesh, density: &Density, symmetry: Symmetry) -> Option<f64> {
-    let h = grid_size(mesh, density, symmetry, &vec![1.0; mesh.n_faces()]).ok()?;
     let area: f64 = (0..mesh.n_faces()).map(|f| mesh.face_area(f)).sum();
-    Some(area / (cell_area(symmetry) * h * h))
+    if !(area > 0.0 && area.is_finite()) {
+        return None;
+    }
+    match *density {
+        Density::TargetVertices(n) if n > 0 => Some(n as f64),
+        Density::EdgeLength(h) if h > 0.0 && h.is_finite() => {
+            Some(area / (cell_area(symmetry) * h * h))
+        }
+        _ => None,
+    }
 }

@@ -138,15 +138,20 @@ pub fn needs_remesh(mesh: &TriMesh) -> bool {
     needle_area_share(mesh) > NEEDLE_AREA_SHARE
 }
 
-/// Whether `mesh` is a low-poly tessellation far coarser than a grid of `grid_vertices`
-/// vertices: fewer than [`COARSE_MAX_VERTICES`] vertices, and [`COARSE_RATIO`] times fewer than
-/// the grid. The map is linear on each triangle and singularities sit on vertices, so a face
+/// The grid's vertex count (`field::density::grid_vertices`) when `mesh` is a low-poly
+/// tessellation far coarser than a grid of `density`: fewer than [`COARSE_MAX_VERTICES`]
+/// vertices, and [`COARSE_RATIO`] times fewer than the grid; `None` otherwise. The map is linear on each triangle and singularities sit on vertices, so a face
 /// many cells wide has room for neither: raw, a tetrahedron, an octahedron and a square pyramid
 /// (4–6 vertices) map to no grid point at all, a triangular prism folds 4 faces and an
 /// octagonal prism 11, with features at 40°; remeshed first, none folds.
-pub fn too_coarse(mesh: &TriMesh, grid_vertices: f64) -> bool {
+pub fn too_coarse(
+    mesh: &TriMesh,
+    density: &crate::field::density::Density,
+    symmetry: crate::field::Symmetry,
+) -> Option<f64> {
     let n = mesh.n_vertices();
-    n < COARSE_MAX_VERTICES && (n as f64) * COARSE_RATIO < grid_vertices
+    let grid = crate::field::density::grid_vertices(mesh, density, symmetry)?;
+    (n < COARSE_MAX_VERTICES && (n as f64) * COARSE_RATIO < grid).then_some(grid)
 }
 
 /// What a vertex may do.
