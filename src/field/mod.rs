@@ -25,6 +25,7 @@ pub mod curvature;
 pub mod density;
 pub mod index;
 pub mod io;
+pub mod pole_cluster;
 pub mod smoothing;
 pub mod thin;
 pub mod transport;
@@ -486,9 +487,10 @@ fn field_with_analysis<T: Send>(
     };
     // Renormalized ([`smoothing::RENORMALIZE_STEPS`]): every relaxed solution with
     // `renormalize`; one anchored almost nowhere ([`smoothing::unanchored`]: a sphere, all
-    // umbilics) that rounds to no pole; otherwise, under aligned curves, one whose rounding has a singularity of
+    // umbilics) that rounds to no pole; under aligned curves, one whose rounding has a singularity of
     // index +1/2 or more (at least 2/N: the pole a symmetric disc inside an aligned rim rounds
-    // to). Without curves such poles are the curvature lines' (umbilics, thesis sec. 4.3).
+    // to; without curves such poles are the curvature lines' umbilics, thesis sec. 4.3); and
+    // one whose rounding crowds a pole's worth of singularities on a dome ([`pole_cluster`]).
     let renormalize = |turns: &[i64], magnitudes: &[f64]| {
         if params.renormalize {
             return true;
@@ -503,7 +505,12 @@ fn field_with_analysis<T: Send>(
         if smoothing::unanchored(magnitudes) && !at_least(n as i32) {
             return true;
         }
-        params.aligned.is_some() && at_least((n as i32 / 2).max(2))
+        if params.aligned.is_some() && at_least((n as i32 / 2).max(2)) {
+            return true;
+        }
+        // a pole's worth of singularities crowded on a dome ([`pole_cluster`])
+        let indices = index::turn_indices(mesh, &tr, turns, n);
+        pole_cluster::crowded_pole(mesh, &indices, n, grid_size)
     };
     let layout = match early_layout {
         Some(layout) => layout,
