@@ -162,19 +162,25 @@ mod tests {
             .unwrap()
     }
 
+    /// Index `k`/N at the vertices nearest `at`.
+    fn mark(mesh: &TriMesh, indices: &mut [Option<i32>], at: &[(f64, f64)], k: i32) {
+        for &(x, y) in at {
+            indices[vertex_at(mesh, x, y)] = Some(k);
+        }
+    }
+
     #[test]
     fn four_quarters_close_together_on_a_flat_patch_are_a_crowded_pole() {
         let (mesh, mut indices) = flat();
-        for (x, y) in [(18.0, 18.0), (22.0, 18.0), (18.0, 22.0), (22.0, 22.0)] {
-            indices[vertex_at(&mesh, x, y)] = Some(1);
-        }
+        let square = [(18.0, 18.0), (22.0, 18.0), (18.0, 22.0), (22.0, 22.0)];
+        mark(&mesh, &mut indices, &square, 1);
         assert!(crowded_pole(&mesh, &indices, 4, 1.0));
         // three quarters are not a pole's worth
-        indices[vertex_at(&mesh, 22.0, 22.0)] = Some(0);
+        mark(&mesh, &mut indices, &[(22.0, 22.0)], 0);
         assert!(!crowded_pole(&mesh, &indices, 4, 1.0));
         // a negative one among four pays for one of them
-        indices[vertex_at(&mesh, 22.0, 22.0)] = Some(1);
-        indices[vertex_at(&mesh, 20.0, 20.0)] = Some(-1);
+        mark(&mesh, &mut indices, &[(22.0, 22.0)], 1);
+        mark(&mesh, &mut indices, &[(20.0, 20.0)], -1);
         assert!(!crowded_pole(&mesh, &indices, 4, 1.0));
     }
 
@@ -182,12 +188,11 @@ mod tests {
     fn far_apart_or_one_pole_is_no_crowded_pole() {
         let (mesh, mut indices) = flat();
         // more than the widest link (16 cells) apart
-        for (x, y) in [(2.0, 2.0), (38.0, 2.0), (2.0, 38.0), (38.0, 38.0)] {
-            indices[vertex_at(&mesh, x, y)] = Some(1);
-        }
+        let corners = [(2.0, 2.0), (38.0, 2.0), (2.0, 38.0), (38.0, 38.0)];
+        mark(&mesh, &mut indices, &corners, 1);
         assert!(!crowded_pole(&mesh, &indices, 4, 1.0));
         let (mesh, mut indices) = flat();
-        indices[vertex_at(&mesh, 20.0, 20.0)] = Some(4);
+        mark(&mesh, &mut indices, &[(20.0, 20.0)], 4);
         assert!(
             !crowded_pole(&mesh, &indices, 4, 1.0),
             "a pole is left to the pole treatment"
@@ -197,9 +202,8 @@ mod tests {
     #[test]
     fn a_cluster_on_its_curvature_is_left_alone() {
         let (flat, mut indices) = flat();
-        for (x, y) in [(19.0, 20.0), (21.0, 20.0), (20.0, 19.0), (20.0, 21.0)] {
-            indices[vertex_at(&flat, x, y)] = Some(1);
-        }
+        let ring = [(19.0, 20.0), (21.0, 20.0), (20.0, 19.0), (20.0, 21.0)];
+        mark(&flat, &mut indices, &ring, 1);
         assert!(crowded_pole(&flat, &indices, 4, 1.0));
         // a cone's apex: the grid's centre lifted (slope 2.5 out to 6 cells, so the base's
         // negative defect lies outside the cluster's ball), its defect over half a turn
