@@ -93,6 +93,18 @@ pub(crate) fn indices_from_angles(
     matchings: &[i32],
     n: u32,
 ) -> IndexReport {
+    indices_from_angles_with(mesh, tr, theta, matchings, n, &mesh.angle_defects())
+}
+
+/// [`indices_from_angles`] with the mesh's angle defects ([`TriMesh::angle_defects`]) given.
+pub(crate) fn indices_from_angles_with(
+    mesh: &TriMesh,
+    tr: &EdgeTransport,
+    theta: &[f64],
+    matchings: &[i32],
+    n: u32,
+    defects: &[f64],
+) -> IndexReport {
     let ni = n as i64;
     let mut rep = IndexReport {
         n,
@@ -105,7 +117,6 @@ pub(crate) fn indices_from_angles(
         max_rounding_residual: 0.0,
     };
     let (sum_d, sum_r, touched) = all_fan_sums(mesh, tr, theta, n, |e| matchings[e] as i64);
-    let defects = mesh.angle_defects();
     for v in 0..mesh.n_vertices() {
         if !touched[v] {
             continue;
@@ -288,8 +299,19 @@ pub(crate) fn turn_indices(
     turns: &[i64],
     n: u32,
 ) -> Vec<Option<i32>> {
+    turn_indices_from(mesh, tr, turns, n, mesh.angle_defects())
+}
+
+/// [`turn_indices`] with the mesh's angle defects ([`TriMesh::angle_defects`]) given.
+pub(crate) fn turn_indices_from(
+    mesh: &TriMesh,
+    tr: &EdgeTransport,
+    turns: &[i64],
+    n: u32,
+    defects: Vec<f64>,
+) -> Vec<Option<i32>> {
     let step = TAU / n as f64;
-    let mut sum = mesh.angle_defects();
+    let mut sum = defects;
     let mut touched = vec![false; mesh.n_vertices()];
     for f in mesh.faces() {
         for &v in f {

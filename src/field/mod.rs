@@ -491,6 +491,8 @@ fn field_with_analysis<T: Send>(
     // index +1/2 or more (at least 2/N: the pole a symmetric disc inside an aligned rim rounds
     // to; without curves such poles are the curvature lines' umbilics, thesis sec. 4.3); and
     // one whose rounding crowds a pole's worth of singularities on a dome ([`pole_cluster`]).
+    // computed once for the renormalization's question and the singularity pass
+    let defects = std::sync::OnceLock::new();
     let renormalize = |turns: &[i64], magnitudes: &[f64]| {
         if params.renormalize {
             return true;
@@ -509,8 +511,9 @@ fn field_with_analysis<T: Send>(
             return true;
         }
         // a pole's worth of singularities crowded on a dome ([`pole_cluster`])
-        let indices = index::turn_indices(mesh, &tr, turns, n);
-        pole_cluster::crowded_pole(mesh, &indices, n, grid_size)
+        let defects = defects.get_or_init(|| mesh.angle_defects());
+        let indices = index::turn_indices_from(mesh, &tr, turns, n, defects.clone());
+        pole_cluster::crowded_pole(mesh, &indices, defects, n, grid_size)
     };
     let layout = match early_layout {
         Some(layout) => layout,
@@ -543,7 +546,9 @@ fn field_with_analysis<T: Send>(
     let (indices, seconds, handed_on) = std::thread::scope(|scope| {
         let handle = scope.spawn(|| next(&field.matchings));
         let clock = Instant::now();
-        let indices = index::indices_from_angles(mesh, &tr, &sm.theta, &field.matchings, n);
+        let defects = defects.get_or_init(|| mesh.angle_defects());
+        let indices =
+            index::indices_from_angles_with(mesh, &tr, &sm.theta, &field.matchings, n, defects);
         let seconds = clock.elapsed().as_secs_f64();
         handle
             .join()

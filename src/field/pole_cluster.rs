@@ -36,15 +36,20 @@ pub const MARGIN_CELLS: f64 = 2.0;
 /// cluster of total index at least +1, none of them a pole by itself, whose ball (its extent
 /// around its centroid plus [`MARGIN_CELLS`]) holds a net index of at least +1 (negative
 /// singularities inside count) and less than [`CURVATURE_SHARE`] of that net index in angle
-/// defect.
-pub fn crowded_pole(mesh: &TriMesh, indices: &[Option<i32>], n: u32, cell: f64) -> bool {
+/// defect (`defects`: the mesh's, [`TriMesh::angle_defects`]).
+pub fn crowded_pole(
+    mesh: &TriMesh,
+    indices: &[Option<i32>],
+    defects: &[f64],
+    n: u32,
+    cell: f64,
+) -> bool {
     if !(cell.is_finite() && cell > 0.0) {
         return false;
     }
-    let defects = mesh.angle_defects();
     LINK_CELLS
         .iter()
-        .any(|&link| crowded_at(mesh, indices, &defects, n, cell, link * cell))
+        .any(|&link| crowded_at(mesh, indices, defects, n, cell, link * cell))
 }
 
 /// [`crowded_pole`] with positive singularities linked at distance `link`.
@@ -174,14 +179,26 @@ mod tests {
         let (mesh, mut indices) = flat();
         let square = [(18.0, 18.0), (22.0, 18.0), (18.0, 22.0), (22.0, 22.0)];
         mark(&mesh, &mut indices, &square, 1);
-        assert!(crowded_pole(&mesh, &indices, 4, 1.0));
+        assert!(crowded_pole(&mesh, &indices, &mesh.angle_defects(), 4, 1.0));
         // three quarters are not a pole's worth
         mark(&mesh, &mut indices, &[(22.0, 22.0)], 0);
-        assert!(!crowded_pole(&mesh, &indices, 4, 1.0));
+        assert!(!crowded_pole(
+            &mesh,
+            &indices,
+            &mesh.angle_defects(),
+            4,
+            1.0
+        ));
         // a negative one among four pays for one of them
         mark(&mesh, &mut indices, &[(22.0, 22.0)], 1);
         mark(&mesh, &mut indices, &[(20.0, 20.0)], -1);
-        assert!(!crowded_pole(&mesh, &indices, 4, 1.0));
+        assert!(!crowded_pole(
+            &mesh,
+            &indices,
+            &mesh.angle_defects(),
+            4,
+            1.0
+        ));
     }
 
     #[test]
@@ -190,11 +207,17 @@ mod tests {
         // more than the widest link (16 cells) apart
         let corners = [(2.0, 2.0), (38.0, 2.0), (2.0, 38.0), (38.0, 38.0)];
         mark(&mesh, &mut indices, &corners, 1);
-        assert!(!crowded_pole(&mesh, &indices, 4, 1.0));
+        assert!(!crowded_pole(
+            &mesh,
+            &indices,
+            &mesh.angle_defects(),
+            4,
+            1.0
+        ));
         let (mesh, mut indices) = flat();
         mark(&mesh, &mut indices, &[(20.0, 20.0)], 4);
         assert!(
-            !crowded_pole(&mesh, &indices, 4, 1.0),
+            !crowded_pole(&mesh, &indices, &mesh.angle_defects(), 4, 1.0),
             "a pole is left to the pole treatment"
         );
     }
@@ -204,7 +227,7 @@ mod tests {
         let (flat, mut indices) = flat();
         let ring = [(19.0, 20.0), (21.0, 20.0), (20.0, 19.0), (20.0, 21.0)];
         mark(&flat, &mut indices, &ring, 1);
-        assert!(crowded_pole(&flat, &indices, 4, 1.0));
+        assert!(crowded_pole(&flat, &indices, &flat.angle_defects(), 4, 1.0));
         // a cone's apex: the grid's centre lifted (slope 2.5 out to 6 cells, so the base's
         // negative defect lies outside the cluster's ball), its defect over half a turn
         let apex = vertex_at(&flat, 20.0, 20.0);
@@ -219,6 +242,12 @@ mod tests {
             .collect();
         cone.set_positions(pos);
         assert!(cone.angle_defect(apex) > 0.5 * TAU);
-        assert!(!crowded_pole(&cone, &indices, 4, 1.0));
+        assert!(!crowded_pole(
+            &cone,
+            &indices,
+            &cone.angle_defects(),
+            4,
+            1.0
+        ));
     }
 }

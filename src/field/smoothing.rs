@@ -589,14 +589,16 @@ fn smooth_releasing_by(inp: &SmoothInput, release: Release) -> Result<SmoothOutp
                 let angles =
                     |z: &[c64]| -> Vec<f64> { z.iter().map(|z| z.arg() / inp.n as f64).collect() };
                 let mut z = solution.x;
-                if let Some(ask) = inp.renormalize
-                    && ask(
+                if let Some(ask) = inp.renormalize {
+                    let asked = ask(
                         &nearest_turns(tr, &angles(&z), step),
                         &z.iter().map(|z| z.norm()).collect::<Vec<_>>(),
-                    )
-                {
-                    z = renormalized(inp, &w_relaxed, &anchor_relaxed, layout, &rhs, z)?;
-                    lap("smoothing: renormalization".into(), &mut timings);
+                    );
+                    lap("smoothing: whether to renormalize".into(), &mut timings);
+                    if asked {
+                        z = renormalized(inp, &w_relaxed, &anchor_relaxed, layout, &rhs, z)?;
+                        lap("smoothing: renormalization".into(), &mut timings);
+                    }
                 }
                 angles(&z)
             }
