@@ -299,7 +299,7 @@ pub(crate) fn turn_indices(
     turns: &[i64],
     n: u32,
 ) -> Vec<Option<i32>> {
-    turn_indices_from(mesh, tr, turns, n, mesh.angle_defects())
+    turn_indices_from(mesh, tr, turns, n, &mesh.angle_defects())
 }
 
 /// [`turn_indices`] with the mesh's angle defects ([`TriMesh::angle_defects`]) given.
@@ -308,10 +308,10 @@ pub(crate) fn turn_indices_from(
     tr: &EdgeTransport,
     turns: &[i64],
     n: u32,
-    defects: Vec<f64>,
+    defects: &[f64],
 ) -> Vec<Option<i32>> {
     let step = TAU / n as f64;
-    let mut sum = defects;
+    let mut sum = defects.to_vec();
     let mut touched = vec![false; mesh.n_vertices()];
     for f in mesh.faces() {
         for &v in f {

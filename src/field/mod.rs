@@ -497,11 +497,9 @@ fn field_with_analysis<T: Send>(
         if params.renormalize {
             return true;
         }
-        let at_least = |least: i32| {
-            index::turn_indices(mesh, &tr, turns, n)
-                .iter()
-                .any(|k| k.is_some_and(|k| k >= least))
-        };
+        let defects = defects.get_or_init(|| mesh.angle_defects());
+        let indices = index::turn_indices_from(mesh, &tr, turns, n, defects);
+        let at_least = |least: i32| indices.iter().any(|k| k.is_some_and(|k| k >= least));
         // Anchored almost nowhere, unless it rounds to a pole (index +1: a spheroid's
         // umbilic, which the pole treatment takes as it is, thesis sec. 4.3).
         if smoothing::unanchored(magnitudes) && !at_least(n as i32) {
@@ -511,8 +509,6 @@ fn field_with_analysis<T: Send>(
             return true;
         }
         // a pole's worth of singularities crowded on a dome ([`pole_cluster`])
-        let defects = defects.get_or_init(|| mesh.angle_defects());
-        let indices = index::turn_indices_from(mesh, &tr, turns, n, defects.clone());
         pole_cluster::crowded_pole(mesh, &indices, defects, n, grid_size)
     };
     let layout = match early_layout {

@@ -47,27 +47,26 @@ pub fn crowded_pole(
     if !(cell.is_finite() && cell > 0.0) {
         return false;
     }
-    LINK_CELLS
-        .iter()
-        .any(|&link| crowded_at(mesh, indices, defects, n, cell, link * cell))
+    let positive: Vec<usize> = (0..indices.len())
+        .filter(|&v| indices[v].is_some_and(|k| k > 0))
+        .collect();
+    let total: i32 = positive.iter().map(|&v| indices[v].unwrap_or(0)).sum();
+    total >= n as i32
+        && LINK_CELLS
+            .iter()
+            .any(|&link| crowded_at(mesh, indices, &positive, defects, n, cell, link * cell))
 }
 
-/// [`crowded_pole`] with positive singularities linked at distance `link`.
+/// [`crowded_pole`] with the `positive` singular vertices linked at distance `link`.
 fn crowded_at(
     mesh: &TriMesh,
     indices: &[Option<i32>],
+    positive: &[usize],
     defects: &[f64],
     n: u32,
     cell: f64,
     link: f64,
 ) -> bool {
-    let positive: Vec<usize> = (0..indices.len())
-        .filter(|&v| indices[v].is_some_and(|k| k > 0))
-        .collect();
-    let total: i32 = positive.iter().map(|&v| indices[v].unwrap_or(0)).sum();
-    if total < n as i32 {
-        return false;
-    }
     // union–find over a spatial hash of side `link`
     let mut parent: Vec<usize> = (0..positive.len()).collect();
     fn root(parent: &mut [usize], mut i: usize) -> usize {
@@ -113,17 +112,13 @@ fn crowded_at(
         let r = root(&mut parent, i);
         clusters.entry(r).or_default().push(positive[i]);
     }
-    let mut candidates: Vec<Vec<usize>> = clusters
+    let candidates: Vec<Vec<usize>> = clusters
         .into_values()
         .filter(|c| c.iter().map(|&v| indices[v].unwrap_or(0)).sum::<i32>() >= n as i32)
         // one vertex of index +1 or more is a pole the pole treatment takes as it is (a
         // spheroid's umbilic, thesis sec. 4.3), not zeros crowded together
         .filter(|c| c.iter().all(|&v| indices[v].unwrap_or(0) < n as i32))
         .collect();
-    if candidates.is_empty() {
-        return false;
-    }
-    candidates.sort_unstable();
     candidates.iter().any(|c| {
         let centre = c.iter().map(|&v| mesh.position(v)).sum::<glam::DVec3>() / c.len() as f64;
         let extent = c
