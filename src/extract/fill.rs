@@ -118,9 +118,23 @@ fn edge_uses(faces: &[Vec<u32>]) -> HashMap<(u32, u32), usize> {
 /// its two real faces; whatever else they leave open is a hole for [`fill_holes`]. Left alone:
 /// two reversed faces making a closed surface on their own (a pillow: every edge in exactly two
 /// faces), and a tube two cells around (every quad has its reverse, every vertex is in four
-/// faces: a grid too coarse, which is reported, not a fold). Returns how many pairs were
-/// dropped.
+/// faces: a grid too coarse, which is reported, not a fold). Repeated while it drops any: a
+/// pleat two cells wide has its inner vertex in both pairs, and only the outer pair's vertex is
+/// in no other face until that pair is gone (a T-shaped prism, N = 6: two non-manifold edges
+/// left, 2026-12-06). Returns how many pairs were dropped.
 pub fn drop_pleats(faces: &mut Vec<Vec<u32>>) -> usize {
+    let mut pairs = 0;
+    loop {
+        let dropped = drop_pleats_once(faces);
+        if dropped == 0 {
+            return pairs;
+        }
+        pairs += dropped;
+    }
+}
+
+/// One pass of [`drop_pleats`].
+fn drop_pleats_once(faces: &mut Vec<Vec<u32>>) -> usize {
     // The cycle rotated to start at its smallest vertex: equal for the same face.
     let canonical = |f: &[u32]| -> Vec<u32> {
         let k = (0..f.len()).min_by_key(|&i| f[i]).unwrap_or(0);
@@ -268,6 +282,13 @@ mod tests {
         assert_eq!(drop_pleats(&mut faces), 1);
         assert_eq!(faces, grid);
         assert_eq!(drop_pleats(&mut faces), 0);
+        // Two cells wide: 5, 6, 16 and 6, 17, 16 traced on both sheets; 16 is in both pairs.
+        faces.insert(4, vec![5, 6, 16]);
+        faces.push(vec![16, 6, 5]);
+        faces.push(vec![6, 17, 16]);
+        faces.insert(2, vec![16, 17, 6]);
+        assert_eq!(drop_pleats(&mut faces), 2);
+        assert_eq!(faces, grid);
         let mut pillow = vec![vec![0, 1, 2, 3], vec![3, 2, 1, 0]];
         assert_eq!(drop_pleats(&mut pillow), 0);
         assert_eq!(pillow.len(), 2);
