@@ -1041,6 +1041,66 @@ fn singularities_beside_prism_corners_move_onto_them() {
     }
 }
 
+/// A T-shaped prism (a 4 × 1 bar on a 1 × 3 stem, 1 thick) with features at 40°, N = 6: the
+/// curvature smoothing carried the creases' bend, 30° off their line family for six
+/// directions, into the flat faces beside them, and the design turned the field by +30° on
+/// one stretch of a stem crease and −30° on the next, with a singularity where the crease
+/// changed family (2026-12-06, folded faces after the repair: 4 at 15 000 vertices, 1 190 at
+/// 20 000; from an STL at the default density 4 241). Such a design is made again from the
+/// unsmoothed shape operators (`FieldParams::raw_guidance`, `edit::families`) when that one
+/// changes family at fewer places: the map is fold-free and its remesh manifold.
+#[test]
+fn a_t_shaped_prism_with_six_fold_symmetry_does_not_fold() {
+    const T_POLYGON: [(f64, f64); 8] = [
+        (1.5, 0.0),
+        (2.5, 0.0),
+        (2.5, 3.0),
+        (4.0, 3.0),
+        (4.0, 4.0),
+        (0.0, 4.0),
+        (0.0, 3.0),
+        (1.5, 3.0),
+    ];
+    const T_CAP: [[u32; 3]; 6] = [
+        [0, 1, 2],
+        [0, 2, 7],
+        [6, 7, 5],
+        [7, 2, 4],
+        [7, 4, 5],
+        [2, 3, 4],
+    ];
+    let settings = Settings {
+        symmetry: 6,
+        ..Settings::default()
+    };
+    for vertices in [15_000, 20_000] {
+        let what = format!("T prism at {vertices} vertices, N = 6");
+        let mesh = extruded(&T_POLYGON, &T_CAP, 1.0, vertices);
+        let base = Base::for_mesh(mesh.clone(), settings.clone()).unwrap();
+        let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
+        check_geometric(&base, &state, &solved);
+        let p = &solved.param;
+        eprintln!(
+            "{what}: {} folds before the repair, {} after, {} singularities, {} runs of {} curves",
+            p.flipped_faces_before_repair,
+            p.flipped_faces,
+            p.singularities.len(),
+            p.curves.len(),
+            state.curves.len()
+        );
+        assert_eq!(state.curves.len(), 24, "{what}");
+        assert_eq!(p.flipped_faces, 0, "{what}");
+        let (remesh, share, _) = remesh_along_curves(&base, &state, &solved, &what);
+        remesh_checks::assert_manifold(&remesh, &what);
+        assert!(
+            remesh.patched_places <= 3,
+            "{what}: {}",
+            remesh.patched_places
+        );
+        assert!(share > 0.99, "{what}: {share}");
+    }
+}
+
 /// The bunny with its boundary aligned and the field renormalized (`renormalize_field`): two
 /// boundary corners one edge apart, held by parallel lines of a short run that the rounding put
 /// on one value, folded their face (1 fold left, 2026-12-03); the re-rounding under curves now

@@ -227,6 +227,13 @@ pub struct FieldParams {
     /// ([`crease_reach`]).
     #[serde(skip)]
     pub rim_aligned: Option<std::sync::Arc<Vec<u32>>>,
+    /// Read the curvature guidance from the unsmoothed shape operators (eq. 3.2 as is), the
+    /// density from the smoothed ones (`curvature_smoothing`): a design whose hexagonal field
+    /// changes line family along a sharp crease is made again so (`edit::families`), since the
+    /// smoothing carries the crease's bend, 30° off the crease for six directions, into the flat
+    /// faces beside it.
+    #[serde(skip)]
+    pub raw_guidance: bool,
 }
 
 /// Alignment weight τω of a face along a constraint curve, against the dual Laplacian's
@@ -256,6 +263,7 @@ impl Default for FieldParams {
             aligned: None,
             boundary_aligned: None,
             rim_aligned: None,
+            raw_guidance: false,
         }
     }
 }
@@ -383,13 +391,22 @@ fn field_with_analysis<T: Send>(
     let tr = EdgeTransport::new(mesh, &bases);
     lap("bases + transport", &mut timings);
     let curvature = Curvature::compute(mesh, &bases, params.curvature_smoothing);
+    // The smoothing passes of the shape operators the guidance is read from.
+    let guide_passes = if params.raw_guidance {
+        0
+    } else {
+        params.curvature_smoothing
+    };
+    let raw_curvature = (guide_passes != params.curvature_smoothing)
+        .then(|| Curvature::compute(mesh, &bases, guide_passes));
+    let guiding = raw_curvature.as_ref().unwrap_or(&curvature);
     lap("curvature", &mut timings);
     let (lo, hi) = mesh.bounding_box();
     let diag = (hi - lo).length().max(f64::MIN_POSITIVE);
     let (reference, cand, classes) =
-        classify::targets(&curvature, params.symmetry, params.planar_threshold / diag);
+        classify::targets(guiding, params.symmetry, params.planar_threshold / diag);
     let mut omega = match params.guidance {
-        Guidance::Curvature => curvature.reliability(params.reliable_fraction, &cand),
+        Guidance::Curvature => guiding.reliability(params.reliable_fraction, &cand),
         Guidance::Smooth => vec![0.0; mesh.n_faces()],
     };
     let mut reference = reference;
@@ -416,7 +433,7 @@ fn field_with_analysis<T: Send>(
                     *r = true;
                 }
             }
-            let near = crease_reach(mesh, &on_rim, params.curvature_smoothing);
+            let near = crease_reach(mesh, &on_rim, guide_passes);
             for (f, w) in omega.iter_mut().enumerate() {
                 if near[f] && !on_curve[f] {
                     *w = 0.0;
