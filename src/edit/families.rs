@@ -8,8 +8,8 @@
 //! line family, so the field turns by +30° or −30° between the two and nothing decides which.
 //! A T extrusion with features at 40° (N = 6) got +1/6 singularities halfway down its stem's
 //! creases that way and 4 241 folded faces after the repair; designed from the unsmoothed
-//! shape operators (`FieldParams::raw_guidance`), which the edit model does when that halves
-//! the count, none.
+//! shape operators (`FieldParams::raw_guidance`), which the edit model keeps when that halves
+//! the count or the field's curl, none.
 
 use std::f64::consts::TAU;
 
