@@ -575,19 +575,25 @@ impl Base {
             // by the curl alone a thin plate kept 13 (8 → 0 places, curl 163 → 178) and an L
             // plate got 6 (3 → 4 places, curl 379 → 176); taking any fewer places, a U plate
             // got 2 (11 → 6 places, curl 366 → 257).
-            let changes = |state: &EditState| -> Result<usize, EditError> {
-                Ok(super::families::crease_family_changes(
-                    &self.mesh,
-                    &self.bases,
-                    &self.tr,
-                    &self.angles(state)?,
-                    &state.turns,
-                    6,
-                    state.curves.values(),
-                ))
+            let changes = |state: &EditState| {
+                self.angles(state).ok().map(|theta| {
+                    super::families::crease_family_changes(
+                        &self.mesh,
+                        &self.bases,
+                        &self.tr,
+                        &theta,
+                        &state.turns,
+                        6,
+                        state.curves.values(),
+                    )
+                })
             };
             let hexagonal = self.settings.symmetry == 6 && params.curvature_smoothing > 0;
-            let before = if hexagonal { changes(&first)? } else { 0 };
+            let before = if hexagonal {
+                changes(&first).unwrap_or(0)
+            } else {
+                0
+            };
             if before == 0 {
                 first
             } else {
@@ -598,11 +604,21 @@ impl Base {
                     raw_guidance: true,
                     ..params
                 };
-                let second = designed(&raw, state)?;
-                let after = changes(&second)?;
-                let halved = 2 * after <= before
-                    || (after < before && 2.0 * self.curl(&second)? <= self.curl(&first)?);
-                if halved { second } else { first }
+                // (A count, a curl or a second design that cannot be had decides for the
+                // first design.)
+                match designed(&raw, state) {
+                    Ok(second) => {
+                        let after = changes(&second).unwrap_or(before);
+                        let curl = |state: &EditState| self.curl(state).ok();
+                        let halved = 2 * after <= before
+                            || (after < before
+                                && curl(&second)
+                                    .zip(curl(&first))
+                                    .is_some_and(|(second, first)| 2.0 * second <= first));
+                        if halved { second } else { first }
+                    }
+                    Err(_) => first,
+                }
             }
         };
         for edit in std::mem::take(&mut state.history) {
