@@ -569,12 +569,13 @@ impl Base {
             let first = designed(&params, state.clone())?;
             // N = 6: a design that changes line family along sharp creases is made again from
             // the unsmoothed shape operators, and that one kept if it changes family at no more
-            // than half as many places, or at fewer with no more than half the curl (sec. 3.3:
-            // how far the frames are from a map's gradient). Measured (docs/untangling.md): by
-            // the places alone two boxes kept 16 folded faces (4 → 3 places, curl 436 → 113);
-            // by the curl alone a thin plate kept 13 (8 → 0 places, curl 163 → 178) and an L
-            // plate got 6 (3 → 4 places, curl 379 → 176); taking any fewer places, a U plate
-            // got 2 (11 → 6 places, curl 366 → 257).
+            // than half as many places, or has no more than a third of the curl (sec. 3.3: how
+            // far the frames are from a map's gradient), or both fewer places and no more than
+            // half the curl. Measured (docs/untangling.md): by the places alone two boxes kept
+            // 16 folded faces (4 → 3 places, curl 436 → 113) and a T prism 35 (2 → 5, curl
+            // 1064 → 238); by half the curl alone a thin plate kept 13 (8 → 0 places, curl
+            // 163 → 178) and an L plate got 6 (3 → 4 places, curl 379 → 176); taking any
+            // fewer places, a U plate got 2 (11 → 6 places, curl 366 → 257).
             let changes = |state: &EditState| {
                 self.angles(state).ok().map(|theta| {
                     super::families::crease_family_changes(
@@ -609,12 +610,17 @@ impl Base {
                 match designed(&raw, state) {
                     Ok(second) => {
                         let after = changes(&second).unwrap_or(before);
-                        let curl = |state: &EditState| self.curl(state).ok();
-                        let halved = 2 * after <= before
-                            || (after < before
-                                && curl(&second)
-                                    .zip(curl(&first))
-                                    .is_some_and(|(second, first)| 2.0 * second <= first));
+                        // The second design's curl as a share of the first's.
+                        let curl_share = || {
+                            let curl = |state: &EditState| self.curl(state).ok();
+                            curl(&second)
+                                .zip(curl(&first))
+                                .map_or(f64::INFINITY, |(second, first)| second / first)
+                        };
+                        let halved = 2 * after <= before || {
+                            let share = curl_share();
+                            share <= 1.0 / 3.0 || (after < before && share <= 0.5)
+                        };
                         if halved { second } else { first }
                     }
                     Err(_) => first,
