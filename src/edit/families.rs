@@ -134,3 +134,78 @@ pub(crate) fn crease_family_changes<'a>(
     }
     count
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::constraint::CurveOrigin;
+    use crate::field::smoothing::nearest_turns;
+    use crate::mesh::generate;
+
+    /// An 8 × 4 grid, folded by 90° along its middle row (y = 2) when `folded`, and the curve
+    /// along that row.
+    fn crease(folded: bool) -> (TriMesh, Curve) {
+        let mut mesh = generate::grid(8, 4, 8.0, 4.0);
+        if folded {
+            let p: Vec<DVec3> = (0..mesh.n_vertices())
+                .map(|v| {
+                    let q = mesh.position(v);
+                    if q.y > 2.0 {
+                        DVec3::new(q.x, 2.0, q.y - 2.0)
+                    } else {
+                        q
+                    }
+                })
+                .collect();
+            mesh.set_positions(p);
+        }
+        let curve = Curve {
+            id: 0,
+            vertices: (0..=8).map(|i| 2 * 9 + i).collect(),
+            closed: false,
+            kind: CurveKind::Geometric,
+            origin: CurveOrigin::Drawn,
+        };
+        (mesh, curve)
+    }
+
+    /// A field along the crease everywhere changes no family. One whose angles turn by
+    /// `turn` steps of 2π/N on the faces past x = 4 while its matchings stay those of the
+    /// unturned field (a singularity at the crease's middle vertex spending `turn` steps on
+    /// the faces on the left) changes family there when `turn` is not a multiple of N/2; on a
+    /// flat grid (no crease) nothing is counted.
+    #[test]
+    fn a_turn_of_the_frames_along_a_crease_is_a_change_of_family() {
+        for (n, turn, folded, expected) in [
+            (6, 0, true, 0),
+            (6, 1, true, 1),
+            (6, 2, true, 1),
+            (6, 3, true, 0),
+            (4, 1, true, 1),
+            (4, 2, true, 0),
+            (6, 1, false, 0),
+        ] {
+            let (mesh, curve) = crease(folded);
+            let bases = FaceBases::new(&mesh);
+            let tr = EdgeTransport::new(&mesh, &bases);
+            let along: Vec<f64> = (0..mesh.n_faces())
+                .map(|f| bases.angle_of(f, DVec3::X))
+                .collect();
+            let turns = nearest_turns(&tr, &along, TAU / n as f64);
+            let theta: Vec<f64> = along
+                .iter()
+                .enumerate()
+                .map(|(f, &a)| {
+                    let past = mesh.face(f).iter().all(|&v| mesh.position(v).x >= 4.0);
+                    a + if past {
+                        turn as f64 * TAU / n as f64
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            let count = crease_family_changes(&mesh, &bases, &tr, &theta, &turns, n, [&curve]);
+            assert_eq!(count, expected, "N = {n}, {turn} steps, folded {folded}");
+        }
+    }
+}
