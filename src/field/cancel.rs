@@ -15,7 +15,7 @@
 use std::cmp::Reverse;
 use std::collections::{BTreeMap, BinaryHeap};
 
-use super::index::{Singularity, turn_index_k_at, turn_indices};
+use super::index::{Singularity, turn_index_k_at, turn_indices_from};
 use super::transport::EdgeTransport;
 use crate::mesh::TriMesh;
 
@@ -27,8 +27,8 @@ const ROUNDS: usize = 5;
 /// halfedge to the other) with opposite-index singularities closer than `radius` (3-D distance)
 /// cancelled pairwise, nearest pairs first, and the faces around the changed edges (whose
 /// alignment must give way so the field can turn smoothly there); `None` when there is no such
-/// pair or nothing could be cancelled. The angles `_theta` the turns were rounded from (the
-/// [`AdjustTurns`](super::smoothing::AdjustTurns) signature) are not needed.
+/// pair or nothing could be cancelled. `defects` are the mesh's angle defects
+/// ([`TriMesh::angle_defects`], computed once per field by the caller).
 ///
 /// Indices are those of the unreduced turns ([`turn_index_k_at`]), which the fixed-matching
 /// solve realizes, not the angle-based ones: those wrap each residual angle to (−π, π], so they
@@ -40,7 +40,7 @@ const ROUNDS: usize = 5;
 pub(crate) fn cancel_close_pairs(
     mesh: &TriMesh,
     tr: &EdgeTransport,
-    _theta: &[f64],
+    defects: &[f64],
     turns: &[i64],
     n: u32,
     radius: f64,
@@ -50,7 +50,7 @@ pub(crate) fn cancel_close_pairs(
     }
     // Indices are computed once; a moved pair changes turns only along its path, so only the
     // path's vertices are re-evaluated (a full pass costs 0.1–0.4 s at a million faces).
-    let indices = turn_indices(mesh, tr, turns, n);
+    let indices = turn_indices_from(mesh, tr, turns, n, defects);
     let mut singular: BTreeMap<usize, i32> = indices
         .iter()
         .enumerate()
@@ -60,8 +60,7 @@ pub(crate) fn cancel_close_pairs(
     let mut r = turns.to_vec();
     let mut released = Vec::new();
     let mut search = PathSearch::new(mesh.n_vertices());
-    let index_at =
-        |r: &[i64], v: usize| turn_index_k_at(mesh, tr, mesh.angle_defect(v), v, n, |e| r[e]);
+    let index_at = |r: &[i64], v: usize| turn_index_k_at(mesh, tr, defects[v], v, n, |e| r[e]);
     for _ in 0..ROUNDS {
         let pairs = close_pairs(mesh, &singular, radius, n as i32);
         let mut changed = false;
@@ -257,6 +256,8 @@ impl Ord for Ordered {
 mod tests {
     use std::f64::consts::TAU;
 
+    use crate::field::index::turn_indices;
+
     use glam::DVec3;
 
     use super::*;
@@ -316,9 +317,14 @@ mod tests {
                         made.sort_unstable();
                         assert_eq!(made, [-k, k], "N = {n}, k = {k}");
                         let label = format!("N = {n}, ±{k}/{n}, {} edges apart", path.len());
-                        let Some((r, released)) =
-                            cancel_close_pairs(&mesh, &tr, &theta, &turns, n, 4.0 * h)
-                        else {
+                        let Some((r, released)) = cancel_close_pairs(
+                            &mesh,
+                            &tr,
+                            &mesh.angle_defects(),
+                            &turns,
+                            n,
+                            4.0 * h,
+                        ) else {
                             failures.push(format!("{label}: nothing cancelled"));
                             continue;
                         };
@@ -374,7 +380,8 @@ mod tests {
         let far = [id(4, 18), id(12, 18)];
         make(&mut turns, far[0], far[1], -1);
         assert_eq!(singular(&mesh, &tr, &turns, n).len(), 8);
-        let (r, _) = cancel_close_pairs(&mesh, &tr, &theta, &turns, n, 4.0 * h).unwrap();
+        let (r, _) =
+            cancel_close_pairs(&mesh, &tr, &mesh.angle_defects(), &turns, n, 4.0 * h).unwrap();
         let mut left = singular(&mesh, &tr, &r, n);
         left.sort_unstable();
         let mut expected = vec![(far[0], -1), (far[1], 1)];
@@ -410,7 +417,7 @@ mod tests {
             assert_eq!(made.len(), 3, "N = {n}: {made:?}");
             assert_eq!(made.iter().sum::<i32>(), 0, "N = {n}: {made:?}");
             assert_eq!(made.iter().map(|k| k.abs()).max(), Some(2), "N = {n}");
-            let (r, _) = cancel_close_pairs(&mesh, &tr, &theta, &turns, n, 3.0 * h)
+            let (r, _) = cancel_close_pairs(&mesh, &tr, &mesh.angle_defects(), &turns, n, 3.0 * h)
                 .unwrap_or_else(|| panic!("N = {n}: nothing cancelled"));
             assert_eq!(singular(&mesh, &tr, &r, n), [], "N = {n}");
             // A pole beside a single index of the other sign (their partners far away):
@@ -438,7 +445,7 @@ mod tests {
                 .expect("a pole and a single index of opposite signs");
             assert_eq!(singular(&mesh, &tr, &turns, n).len(), 4, "N = {n}");
             assert!(
-                cancel_close_pairs(&mesh, &tr, &theta, &turns, n, 3.0 * h).is_none(),
+                cancel_close_pairs(&mesh, &tr, &mesh.angle_defects(), &turns, n, 3.0 * h).is_none(),
                 "N = {n}: a pole merged with a single index"
             );
         }
@@ -485,7 +492,7 @@ mod tests {
                 .collect();
             assert_eq!(made, expected, "N = {n}");
             assert_eq!(singular(&mesh, &tr, &turns, n), expected, "N = {n}");
-            let (r, _) = cancel_close_pairs(&mesh, &tr, &theta, &turns, n, 2.0 * h)
+            let (r, _) = cancel_close_pairs(&mesh, &tr, &mesh.angle_defects(), &turns, n, 2.0 * h)
                 .unwrap_or_else(|| panic!("N = {n}: nothing cancelled"));
             assert_eq!(singular(&mesh, &tr, &r, n), [], "N = {n}");
         }

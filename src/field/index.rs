@@ -290,9 +290,8 @@ pub(crate) fn turn_index_k_at(
     any.then(|| (n as f64 * sum / TAU).round() as i32)
 }
 
-/// [`turn_index_k_at`] of every vertex at once, edge by edge (`None` on boundary and isolated
-/// vertices): crossing the edge of halfedge g from face(g) to face(twin g) is the crossing
-/// counter-clockwise around the vertex g ends at.
+/// [`turn_indices_from`] with the angle defects computed here (tests).
+#[cfg(test)]
 pub(crate) fn turn_indices(
     mesh: &TriMesh,
     tr: &EdgeTransport,
@@ -302,7 +301,10 @@ pub(crate) fn turn_indices(
     turn_indices_from(mesh, tr, turns, n, &mesh.angle_defects())
 }
 
-/// [`turn_indices`] with the mesh's angle defects ([`TriMesh::angle_defects`]) given.
+/// [`turn_index_k_at`] of every vertex at once, edge by edge, with the mesh's angle defects
+/// ([`TriMesh::angle_defects`]) given (`None` on boundary and isolated vertices): crossing the
+/// edge of halfedge g from face(g) to face(twin g) is the crossing counter-clockwise around the
+/// vertex g ends at.
 pub(crate) fn turn_indices_from(
     mesh: &TriMesh,
     tr: &EdgeTransport,

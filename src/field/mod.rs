@@ -471,8 +471,12 @@ fn field_with_analysis<T: Send>(
         let t = mesh.topology();
         t.genus == 1 && t.boundary_loops == 0 && t.components.len() == 1
     };
-    let cancel = |theta: &[f64], turns: &[i64]| {
-        let near = cancel::cancel_close_pairs(mesh, &tr, theta, turns, n, radius);
+    // The angle defects, computed once for the cancellation, the renormalization's question and
+    // the singularity pass.
+    let defects = std::sync::OnceLock::new();
+    let cancel = |_theta: &[f64], turns: &[i64]| {
+        let defects = defects.get_or_init(|| mesh.angle_defects());
+        let near = cancel::cancel_close_pairs(mesh, &tr, defects, turns, n, radius);
         if !lone_torus {
             return near;
         }
@@ -483,7 +487,7 @@ fn field_with_analysis<T: Send>(
         // edges between them (a torus with sliver triangles: two faces of zero area left
         // after the repair, which no re-rounding could part). Cancelled at any distance.
         let current = near.as_ref().map_or(turns, |(r, _)| r.as_slice());
-        let singular: Vec<i32> = index::turn_indices(mesh, &tr, current, n)
+        let singular: Vec<i32> = index::turn_indices_from(mesh, &tr, current, n, defects)
             .into_iter()
             .flatten()
             .filter(|&k| k != 0)
@@ -491,7 +495,7 @@ fn field_with_analysis<T: Send>(
         if singular.len() != 2 || singular[0] + singular[1] != 0 {
             return near;
         }
-        match cancel::cancel_close_pairs(mesh, &tr, theta, current, n, f64::INFINITY) {
+        match cancel::cancel_close_pairs(mesh, &tr, defects, current, n, f64::INFINITY) {
             Some((r, more)) => {
                 let mut released = near.map(|(_, a)| a).unwrap_or_default();
                 released.extend(more);
@@ -508,8 +512,6 @@ fn field_with_analysis<T: Send>(
     // index +1/2 or more (at least 2/N: the pole a symmetric disc inside an aligned rim rounds
     // to; without curves such poles are the curvature lines' umbilics, thesis sec. 4.3); and
     // one whose rounding crowds a pole's worth of singularities on a dome ([`pole_cluster`]).
-    // computed once for the renormalization's question and the singularity pass
-    let defects = std::sync::OnceLock::new();
     let renormalize = |turns: &[i64], magnitudes: &[f64]| {
         if params.renormalize {
             return true;
