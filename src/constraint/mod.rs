@@ -210,9 +210,7 @@ pub fn halfedge_between(mesh: &TriMesh, a: usize, b: usize) -> Option<usize> {
     if a >= mesh.n_vertices() || b >= mesh.n_vertices() {
         return None;
     }
-    mesh.outgoing(a)
-        .find(|&h| mesh.to(h) == b)
-        .or_else(|| mesh.outgoing(b).find(|&h| mesh.to(h) == a))
+    mesh.halfedge_to(a, b).or_else(|| mesh.halfedge_to(b, a))
 }
 
 /// What is wrong with a curve's vertex list ([`check_path`]), by 0-based positions in it.

@@ -19,11 +19,6 @@ use crate::constraint::{Curve, CurveKind, RIM_BEND_DEG};
 use crate::field::transport::{EdgeTransport, FaceBases};
 use crate::mesh::TriMesh;
 
-/// The halfedge from `a` to `b` (its face on the left of a → b).
-fn directed(mesh: &TriMesh, a: usize, b: usize) -> Option<usize> {
-    mesh.outgoing(a).find(|&h| mesh.to(h) == b)
-}
-
 /// Whether the edge of halfedge `h` is a crease: its two faces' normals at least
 /// [`RIM_BEND_DEG`] apart.
 fn bent(mesh: &TriMesh, h: usize) -> bool {
@@ -110,12 +105,13 @@ pub(crate) fn crease_family_changes<'a>(
             let d_in = p(x) - p(at(i - 2).unwrap_or(a));
             let d_out = p(at(i + 2).unwrap_or(b)) - p(x);
             // The faces on the curve's left, or on its right where the left is open.
-            let sides = directed(mesh, a, x)
-                .zip(directed(mesh, x, b))
+            let sides = mesh
+                .halfedge_to(a, x)
+                .zip(mesh.halfedge_to(x, b))
                 .map(|(h_in, h_out)| (h_in, h_out, d_in, d_out))
                 .or_else(|| {
-                    directed(mesh, b, x)
-                        .zip(directed(mesh, x, a))
+                    mesh.halfedge_to(b, x)
+                        .zip(mesh.halfedge_to(x, a))
                         .map(|(h_in, h_out)| (h_in, h_out, -d_out, -d_in))
                 });
             let Some((h_in, h_out, d_in, d_out)) = sides else {

@@ -273,6 +273,7 @@ pub struct FieldResult {
     pub field: FrameField,
     /// Angle of U per face in the face basis (`mesh.face_basis`).
     pub theta: Vec<f64>,
+    /// The principal curvature the guidance was read from ([`FieldParams::raw_guidance`]).
     pub curvature: Curvature,
     /// Reference (curvature) direction per face, angle in the face basis.
     pub reference: Vec<f64>,
@@ -390,23 +391,24 @@ fn field_with_analysis<T: Send>(
     let bases = FaceBases::new(mesh);
     let tr = EdgeTransport::new(mesh, &bases);
     lap("bases + transport", &mut timings);
-    let curvature = Curvature::compute(mesh, &bases, params.curvature_smoothing);
     // The smoothing passes of the shape operators the guidance is read from.
     let guide_passes = if params.raw_guidance {
         0
     } else {
         params.curvature_smoothing
     };
-    let raw_curvature = (guide_passes != params.curvature_smoothing)
-        .then(|| Curvature::compute(mesh, &bases, guide_passes));
-    let guiding = raw_curvature.as_ref().unwrap_or(&curvature);
+    let curvature = Curvature::compute(mesh, &bases, guide_passes);
+    // A curvature-driven density reads the smoothed operators still.
+    let density_curvature = (guide_passes != params.curvature_smoothing
+        && matches!(params.scale, ScaleFunction::Curvature { .. }))
+    .then(|| Curvature::compute(mesh, &bases, params.curvature_smoothing));
     lap("curvature", &mut timings);
     let (lo, hi) = mesh.bounding_box();
     let diag = (hi - lo).length().max(f64::MIN_POSITIVE);
     let (reference, cand, classes) =
-        classify::targets(guiding, params.symmetry, params.planar_threshold / diag);
+        classify::targets(&curvature, params.symmetry, params.planar_threshold / diag);
     let mut omega = match params.guidance {
-        Guidance::Curvature => guiding.reliability(params.reliable_fraction, &cand),
+        Guidance::Curvature => curvature.reliability(params.reliable_fraction, &cand),
         Guidance::Smooth => vec![0.0; mesh.n_faces()],
     };
     let mut reference = reference;
@@ -450,7 +452,11 @@ fn field_with_analysis<T: Send>(
         }
     }
     lap("classification + reliability", &mut timings);
-    let mut multipliers = density::face_multipliers(mesh, &params.scale, &curvature)?;
+    let mut multipliers = density::face_multipliers(
+        mesh,
+        &params.scale,
+        density_curvature.as_ref().unwrap_or(&curvature),
+    )?;
     let grid_size = density::grid_size(mesh, &params.density, params.symmetry, &multipliers)?;
     let thin = if params.refine_thin {
         let thin = thin::thin_parts(mesh, grid_size);

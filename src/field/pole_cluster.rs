@@ -20,6 +20,7 @@ use std::collections::HashMap;
 use std::f64::consts::TAU;
 
 use crate::mesh::TriMesh;
+use crate::mesh::disjoint::Disjoint;
 
 /// Positive singularities closer than this many grid cells are linked into one cluster, at each
 /// of these scales in turn (a dome's N singularities sit 3–8 cells apart, depending on N and
@@ -67,15 +68,8 @@ fn crowded_at(
     cell: f64,
     link: f64,
 ) -> bool {
-    // union–find over a spatial hash of side `link`
-    let mut parent: Vec<usize> = (0..positive.len()).collect();
-    fn root(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
-        }
-        i
-    }
+    // linked over a spatial hash of side `link`
+    let mut sets = Disjoint::new(positive.len());
     let bucket = |i: usize| {
         let p = mesh.position(positive[i]) / link;
         [p.x.floor() as i64, p.y.floor() as i64, p.z.floor() as i64]
@@ -99,8 +93,7 @@ fn crowded_at(
                                 .distance(mesh.position(positive[j]))
                                 < link
                         {
-                            let (a, b) = (root(&mut parent, i), root(&mut parent, j));
-                            parent[a.max(b)] = a.min(b);
+                            sets.union(i, j);
                         }
                     }
                 }
@@ -109,8 +102,7 @@ fn crowded_at(
     }
     let mut clusters: HashMap<usize, Vec<usize>> = HashMap::new();
     for i in 0..positive.len() {
-        let r = root(&mut parent, i);
-        clusters.entry(r).or_default().push(positive[i]);
+        clusters.entry(sets.find(i)).or_default().push(positive[i]);
     }
     let candidates: Vec<Vec<usize>> = clusters
         .into_values()
@@ -162,6 +154,11 @@ mod tests {
             .unwrap()
     }
 
+    /// [`crowded_pole`] for N = 4 on unit cells.
+    fn crowded(mesh: &TriMesh, indices: &[Option<i32>]) -> bool {
+        crowded_pole(mesh, indices, &mesh.angle_defects(), 4, 1.0)
+    }
+
     /// Index `k`/N at the vertices nearest `at`.
     fn mark(mesh: &TriMesh, indices: &mut [Option<i32>], at: &[(f64, f64)], k: i32) {
         for &(x, y) in at {
@@ -174,26 +171,14 @@ mod tests {
         let (mesh, mut indices) = flat();
         let square = [(18.0, 18.0), (22.0, 18.0), (18.0, 22.0), (22.0, 22.0)];
         mark(&mesh, &mut indices, &square, 1);
-        assert!(crowded_pole(&mesh, &indices, &mesh.angle_defects(), 4, 1.0));
+        assert!(crowded(&mesh, &indices));
         // three quarters are not a pole's worth
         mark(&mesh, &mut indices, &[(22.0, 22.0)], 0);
-        assert!(!crowded_pole(
-            &mesh,
-            &indices,
-            &mesh.angle_defects(),
-            4,
-            1.0
-        ));
+        assert!(!crowded(&mesh, &indices));
         // a negative one among four pays for one of them
         mark(&mesh, &mut indices, &[(22.0, 22.0)], 1);
         mark(&mesh, &mut indices, &[(20.0, 20.0)], -1);
-        assert!(!crowded_pole(
-            &mesh,
-            &indices,
-            &mesh.angle_defects(),
-            4,
-            1.0
-        ));
+        assert!(!crowded(&mesh, &indices));
     }
 
     #[test]
@@ -202,17 +187,11 @@ mod tests {
         // more than the widest link (16 cells) apart
         let corners = [(2.0, 2.0), (38.0, 2.0), (2.0, 38.0), (38.0, 38.0)];
         mark(&mesh, &mut indices, &corners, 1);
-        assert!(!crowded_pole(
-            &mesh,
-            &indices,
-            &mesh.angle_defects(),
-            4,
-            1.0
-        ));
+        assert!(!crowded(&mesh, &indices));
         let (mesh, mut indices) = flat();
         mark(&mesh, &mut indices, &[(20.0, 20.0)], 4);
         assert!(
-            !crowded_pole(&mesh, &indices, &mesh.angle_defects(), 4, 1.0),
+            !crowded(&mesh, &indices),
             "a pole is left to the pole treatment"
         );
     }
@@ -222,7 +201,7 @@ mod tests {
         let (flat, mut indices) = flat();
         let ring = [(19.0, 20.0), (21.0, 20.0), (20.0, 19.0), (20.0, 21.0)];
         mark(&flat, &mut indices, &ring, 1);
-        assert!(crowded_pole(&flat, &indices, &flat.angle_defects(), 4, 1.0));
+        assert!(crowded(&flat, &indices));
         // a cone's apex: the grid's centre lifted (slope 2.5 out to 6 cells, so the base's
         // negative defect lies outside the cluster's ball), its defect over half a turn
         let apex = vertex_at(&flat, 20.0, 20.0);
@@ -237,12 +216,6 @@ mod tests {
             .collect();
         cone.set_positions(pos);
         assert!(cone.angle_defect(apex) > 0.5 * TAU);
-        assert!(!crowded_pole(
-            &cone,
-            &indices,
-            &cone.angle_defects(),
-            4,
-            1.0
-        ));
+        assert!(!crowded(&cone, &indices));
     }
 }

@@ -140,6 +140,10 @@ impl TriMesh {
             current: Some(start),
         }
     }
+    /// The halfedge from `a` to `b` (its face on the left of a → b), if there is one.
+    pub fn halfedge_to(&self, a: usize, b: usize) -> Option<usize> {
+        self.outgoing(a).find(|&h| self.to(h) == b)
+    }
     /// Neighbouring vertices of `v` in counter-clockwise order (boundary vertices: both boundary
     /// neighbours included, the last one reached through the last face).
     pub fn one_ring(&self, v: usize) -> Vec<usize> {

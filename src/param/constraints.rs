@@ -169,11 +169,6 @@ struct Walk {
     edges: Vec<EdgeImage>,
 }
 
-/// The halfedge from a to b (whose face lies on the left of a -> b).
-fn directed(mesh: &TriMesh, a: usize, b: usize) -> Option<usize> {
-    mesh.outgoing(a).find(|&h| mesh.to(h) == b)
-}
-
 /// The frames a curve's line family is read from (in the disk frames).
 #[derive(Clone, Copy)]
 pub(crate) enum FamilyFrames<'a> {
@@ -219,7 +214,7 @@ fn walk_left(
     }
     let hs: Vec<usize> = seq
         .windows(2)
-        .map(|w| directed(mesh, w[0], w[1]))
+        .map(|w| mesh.halfedge_to(w[0], w[1]))
         .collect::<Option<_>>()?;
     let mut chart = Aff::default();
     let mut emits = vec![Emit {
