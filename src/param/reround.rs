@@ -714,18 +714,39 @@ impl QuadCover {
                 return Ok(());
             }
             let now_uv: &[[f64; 2]] = uv;
-            let mut ranked = steps
+            let mirror = mirrored(w, &steps);
+            let scored = (0..steps.len())
+                .filter(|&j| mirror[j].is_none())
+                .collect::<Vec<_>>()
                 .into_par_iter()
-                .map(|w2| -> Result<((usize, usize), Vec<f64>), ParamError> {
-                    let (fresh, _) = self.curve_map(mesh, local, traced, factored, &w2)?;
-                    // The repaired map moved by the step, where it matters.
-                    let at = |c: usize| -> [f64; 2] {
-                        std::array::from_fn(|a| now_uv[c][a] + fresh[c][a] - base[c][a])
+                .map(|j| -> Result<Vec<((usize, usize), usize)>, ParamError> {
+                    let (fresh, _) = self.curve_map(mesh, local, traced, factored, &steps[j])?;
+                    // The repaired map moved by the step (or by its mirror image, the
+                    // opposite amount), where it matters.
+                    let score = |sign: f64| {
+                        wound_and_folded(mesh, cones, &near, &near_faces, |c: usize| {
+                            std::array::from_fn(|a| {
+                                now_uv[c][a] + sign * (fresh[c][a] - base[c][a])
+                            })
+                        })
                     };
-                    Ok((wound_and_folded(mesh, cones, &near, &near_faces, at), w2))
+                    Ok(std::iter::once((score(1.0), j))
+                        .chain(
+                            (0..steps.len())
+                                .filter(|&i| mirror[i] == Some(j))
+                                .map(|i| (score(-1.0), i)),
+                        )
+                        .collect())
                 })
                 .collect::<Result<Vec<_>, _>>()?;
-            ranked.sort_by_key(|r| r.0);
+            let mut order: Vec<((usize, usize), usize)> = scored.into_iter().flatten().collect();
+            // By score, then in the steps' order.
+            order.sort_unstable();
+            let mut steps: Vec<Option<Vec<f64>>> = steps.into_iter().map(Some).collect();
+            let ranked: Vec<((usize, usize), Vec<f64>)> = order
+                .into_iter()
+                .filter_map(|(s, i)| steps[i].take().map(|w2| (s, w2)))
+                .collect();
             let tries = if wrong.len() <= WINDING_LAST {
                 ranked.len()
             } else {
@@ -781,6 +802,27 @@ fn unit_steps(traced: &Traced, w: &[f64], unknowns: &[usize]) -> Vec<Vec<f64>> {
         .flat_map(|&k| [-1.0, 1.0].map(|step| traced.stepped(w, k, step)))
         .flatten()
         .collect()
+}
+
+/// Per step, the earlier step it is the mirror image of (w2 − w negated), if any: the global
+/// map is affine in the unknowns, so the two move it by opposite amounts and one solve
+/// serves both (the windings' ranking solves half as many maps where every unknown steps
+/// both ways alone).
+fn mirrored(w: &[f64], steps: &[Vec<f64>]) -> Vec<Option<usize>> {
+    let mut mirror: Vec<Option<usize>> = Vec::with_capacity(steps.len());
+    for (i, s) in steps.iter().enumerate() {
+        let of = (0..i).find(|&j| {
+            mirror[j].is_none()
+                && !mirror.contains(&Some(j))
+                && steps[j]
+                    .iter()
+                    .zip(s)
+                    .zip(w)
+                    .all(|((a, b), x)| a - x == -(b - x))
+        });
+        mirror.push(of);
+    }
+    mirror
 }
 
 /// A candidate step's moved map `at` (corner → point) scored around the wrongly wound
@@ -931,6 +973,26 @@ mod tests {
         }
         // Moving a gap moves the map: the comparison is not of zeros.
         assert!(largest > 0.1, "largest change {largest}");
+    }
+
+    /// A step is the mirror image of the first earlier step whose change is its negation, and
+    /// each has at most one: ±1 on one unknown pair up; followers that differ, or a third
+    /// copy, do not.
+    #[test]
+    fn steps_pair_with_their_mirror_images() {
+        let w = [0.0, 2.0, -1.0];
+        let steps = vec![
+            vec![1.0, 2.0, -1.0],  // +e0
+            vec![-1.0, 2.0, -1.0], // −e0: mirror of 0
+            vec![0.0, 3.0, 0.0],   // +e1 + e2
+            vec![0.0, 1.0, -1.0],  // −e1 alone: not a mirror of 2
+            vec![0.0, 1.0, -2.0],  // −e1 − e2: mirror of 2
+            vec![-1.0, 2.0, -1.0], // −e0 again: 0 is taken
+        ];
+        assert_eq!(
+            mirrored(&w, &steps),
+            vec![None, Some(0), None, None, Some(2), None]
+        );
     }
 
     /// Two singular vertices on one point of a seamless chart are found, whichever of them is
