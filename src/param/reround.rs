@@ -719,7 +719,7 @@ impl QuadCover {
                 .filter(|&j| mirror[j].is_none())
                 .collect::<Vec<_>>()
                 .into_par_iter()
-                .map(|j| -> Result<Vec<((usize, usize), usize)>, ParamError> {
+                .map(|j| -> Result<Vec<Scored>, ParamError> {
                     let (fresh, _) = self.curve_map(mesh, local, traced, factored, &steps[j])?;
                     // The repaired map moved by the step (or by its mirror image, the
                     // opposite amount), where it matters.
@@ -739,7 +739,7 @@ impl QuadCover {
                         .collect())
                 })
                 .collect::<Result<Vec<_>, _>>()?;
-            let mut order: Vec<((usize, usize), usize)> = scored.into_iter().flatten().collect();
+            let mut order: Vec<Scored> = scored.into_iter().flatten().collect();
             // By score, then in the steps' order.
             order.sort_unstable();
             let mut steps: Vec<Option<Vec<f64>>> = steps.into_iter().map(Some).collect();
@@ -803,6 +803,9 @@ fn unit_steps(traced: &Traced, w: &[f64], unknowns: &[usize]) -> Vec<Vec<f64>> {
         .flatten()
         .collect()
 }
+
+/// A step's score (wrongly wound vertices, folds) and its index among the steps.
+type Scored = ((usize, usize), usize);
 
 /// Per step, the earlier step it is the mirror image of (w2 − w negated), if any: the global
 /// map is affine in the unknowns, so the two move it by opposite amounts and one solve
