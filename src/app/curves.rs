@@ -293,15 +293,11 @@ impl EditorApp {
             .edit_base
             .as_ref()
             .map_or(0.0, |b| b.grid_size());
-        let min_length = crate::constraint::detect::MIN_FEATURE_CELLS * scale;
         let ui = &mut self.curves;
-        let key = (self.document.generation(), ui.feature_angle, min_length);
+        let key = (self.document.generation(), ui.feature_angle, scale);
         if ui.preview_key != Some(key) {
-            let edges = crate::constraint::detect::significant_feature_edges(
-                mesh,
-                ui.feature_angle,
-                min_length,
-            );
+            let edges =
+                crate::constraint::detect::significant_feature_edges(mesh, ui.feature_angle, scale);
             ui.preview_edges = edges.len();
             ui.preview_warning = (scale > 0.0)
                 .then(|| {

@@ -19,7 +19,10 @@
 //!   edges shorter in total than [`MIN_FEATURE_CELLS`] times `scale` is dropped first
 //!   ([`significant_feature_edges`]). On scans a dihedral threshold picks up single edges and
 //!   short chains of noise (max-planck at 60°: 52 sets, most of them one to three edges), and
-//!   a parameter line held along each of them folds the map around it. Boundary loops are never
+//!   a parameter line held along each of them folds the map around it. So is a set round a
+//!   cone point ([`CONE_POINT_CELLS`], [`CONE_POINT_TURNS`]): next to a cone's apex the edges'
+//!   dihedral angles exceed the threshold a few edges out, the finer the tessellation the
+//!   nearer, so whether they were curves depended on the density. Boundary loops are never
 //!   dropped.
 //! * Output order is by the smallest edge id of each chain (the two halves of a loop with one
 //!   split point come together, in walking order). Each chain is oriented along the first
@@ -62,11 +65,25 @@ pub fn feature_edges(mesh: &TriMesh, angle_deg: f64) -> Vec<usize> {
 /// to align to (see the module documentation).
 pub const MIN_FEATURE_CELLS: f64 = 4.0;
 
-/// [`feature_edges`] without the connected sets of them (edges sharing a vertex) shorter in
-/// total than `min_length` (model units; 0 keeps every set). In edge id order.
-pub fn significant_feature_edges(mesh: &TriMesh, angle_deg: f64, min_length: f64) -> Vec<usize> {
+/// A connected set of feature edges within this many grid cells of one vertex that gathers a
+/// cone point's curvature ([`CONE_POINT_TURNS`]) is that point's, not a crease.
+pub const CONE_POINT_CELLS: f64 = 6.0;
+
+/// The angle defect (in turns) within one grid cell of a set's most curved vertex from which
+/// the set is a cone point's ([`CONE_POINT_CELLS`]): more than a box corner's quarter turn.
+/// Round a cone's apex the edges' dihedral angles exceed any threshold for a few edges out
+/// (more, the sharper the cone), whatever the tessellation, and a line held along each of
+/// them folds the map: a cone of radius 1 and height 2 with features at 40° at 15 000 target
+/// vertices, 9 curves and 161 folded faces; at 30 000, 57 000.
+pub const CONE_POINT_TURNS: f64 = 1.0 / 3.0;
+
+/// [`feature_edges`] without the connected sets of them (edges sharing a vertex) that are no
+/// crease at the grid's scale `scale` (model units; 0 keeps every set): those shorter in total
+/// than [`MIN_FEATURE_CELLS`] cells, and those round a cone point ([`CONE_POINT_CELLS`],
+/// [`CONE_POINT_TURNS`]; sets on the boundary are kept). In edge id order.
+pub fn significant_feature_edges(mesh: &TriMesh, angle_deg: f64, scale: f64) -> Vec<usize> {
     let edges = feature_edges(mesh, angle_deg);
-    if min_length <= 0.0 {
+    if scale <= 0.0 || edges.is_empty() {
         return edges;
     }
     // The connected sets (edges sharing a vertex), by the smallest vertex of each.
@@ -76,14 +93,54 @@ pub fn significant_feature_edges(mesh: &TriMesh, angle_deg: f64, min_length: f64
         sets.union(a, b);
     }
     let mut length = vec![0.0; mesh.n_vertices()];
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); mesh.n_vertices()];
     for &e in &edges {
         let [a, b] = mesh.edge_vertices(e);
-        length[sets.find(a)] += (mesh.position(b) - mesh.position(a)).length();
+        let root = sets.find(a);
+        length[root] += (mesh.position(b) - mesh.position(a)).length();
+        members[root].extend([a, b]);
+    }
+    let defects = mesh.angle_defects();
+    let mut dropped = vec![false; mesh.n_vertices()];
+    for (root, vs) in members.iter_mut().enumerate() {
+        if vs.is_empty() {
+            continue;
+        }
+        vs.sort_unstable();
+        vs.dedup();
+        dropped[root] =
+            length[root] < MIN_FEATURE_CELLS * scale || cone_point(mesh, vs, &defects, scale);
     }
     edges
         .into_iter()
-        .filter(|&e| length[sets.find(mesh.edge_vertices(e)[0])] >= min_length)
+        .filter(|&e| !dropped[sets.find(mesh.edge_vertices(e)[0])])
         .collect()
+}
+
+/// Whether the feature edges on `vertices` (one connected set) are a cone point's: all within
+/// [`CONE_POINT_CELLS`] `scale` of the set's most curved vertex, with at least
+/// [`CONE_POINT_TURNS`] of angle defect among the set's vertices within one cell of it.
+fn cone_point(mesh: &TriMesh, vertices: &[usize], defects: &[f64], scale: f64) -> bool {
+    if vertices.iter().any(|&v| mesh.is_boundary_vertex(v)) {
+        return false;
+    }
+    let Some(&hub) = vertices
+        .iter()
+        .max_by(|&&a, &&b| defects[a].total_cmp(&defects[b]))
+    else {
+        return false;
+    };
+    let at = mesh.position(hub);
+    let distance = |v: usize| (mesh.position(v) - at).length();
+    let gathered: f64 = vertices
+        .iter()
+        .filter(|&&v| distance(v) <= scale)
+        .map(|&v| defects[v])
+        .sum();
+    gathered >= CONE_POINT_TURNS * std::f64::consts::TAU
+        && vertices
+            .iter()
+            .all(|&v| distance(v) <= CONE_POINT_CELLS * scale)
 }
 
 /// Feature edges ([`significant_feature_edges`] at `angle_deg`, sets shorter than
@@ -93,7 +150,7 @@ pub fn significant_feature_edges(mesh: &TriMesh, angle_deg: f64, min_length: f64
 /// `scale` (model units, the grid size; 0 for none) is the length over which a turn must also
 /// be sharp.
 pub fn detect_features(mesh: &TriMesh, angle_deg: f64, scale: f64) -> Vec<DetectedCurve> {
-    let edges = significant_feature_edges(mesh, angle_deg, MIN_FEATURE_CELLS * scale);
+    let edges = significant_feature_edges(mesh, angle_deg, scale);
     chain_edges(mesh, &edges, scale, |v| mesh.is_boundary_vertex(v))
 }
 
@@ -349,12 +406,12 @@ mod tests {
     fn short_feature_sets_are_dropped_whole() {
         // The cube's twelve creases (one connected set, length 12) and a spike on the top face
         // (a vertex raised far out of it: a small set of its own).
-        let mut m = cube(2);
+        let mut m = cube(3);
         let top = (0..m.n_vertices())
             .find(|&v| (m.position(v) - DVec3::new(0.5, 0.5, 1.0)).length() < 1e-9)
             .unwrap();
         let mut p = m.positions().to_vec();
-        p[top].z += 0.5;
+        p[top].z += 0.25;
         m = TriMesh::from_triangles(p, m.faces().to_vec()).unwrap();
         let on_cube_edge = |v: usize| {
             let q = m.position(v);
@@ -367,7 +424,7 @@ mod tests {
         let on_crease = |e: usize| m.edge_vertices(e).iter().all(|&v| on_cube_edge(v));
         let all = feature_edges(&m, 40.0);
         let creases = all.iter().filter(|&&e| on_crease(e)).count();
-        assert_eq!(creases, 48, "12 creases of 4 edges");
+        assert_eq!(creases, 96, "12 creases of 8 edges");
         let spike: f64 = all
             .iter()
             .filter(|&&e| !on_crease(e))
@@ -376,14 +433,66 @@ mod tests {
                 (m.position(a) - m.position(b)).length()
             })
             .sum();
-        assert!(spike > 0.5 && spike < 6.0, "the spike's features: {spike}");
+        assert!(spike > 0.5, "the spike's features: {spike}");
         assert_eq!(significant_feature_edges(&m, 40.0, 0.0), all);
-        let kept = significant_feature_edges(&m, 40.0, 6.0);
-        assert_eq!(kept.len(), 48);
+        // Cells of 0.9: sets under 3.6 go, the spike's (the creases are 12 long; a corner's
+        // quarter turn is no cone point).
+        assert!(spike < 3.6, "{spike}");
+        let kept = significant_feature_edges(&m, 40.0, 0.9);
+        assert_eq!(kept.len(), 96);
         assert!(kept.iter().all(|&e| on_crease(e)));
-        // Longer than the creases: nothing stays. And `detect_features` drops at 4 cells.
-        assert!(significant_feature_edges(&m, 40.0, 12.5).is_empty());
-        assert_eq!(detect_features(&m, 40.0, 6.0 / MIN_FEATURE_CELLS).len(), 12);
+        // Longer than the creases: nothing stays. And `detect_features` drops the same.
+        assert!(significant_feature_edges(&m, 40.0, 12.5 / MIN_FEATURE_CELLS).is_empty());
+        assert_eq!(detect_features(&m, 40.0, 0.9).len(), 12);
+    }
+
+    /// A cone's apex is no crease: the sets of feature edges round it go, however long, while
+    /// its base rim (a crease) and a box's corners (a quarter turn each) stay. The cone (radius
+    /// 1, height 3, a closed fan of 48 sectors and a flat base) remeshed as `solve` prepares a
+    /// raw part.
+    #[test]
+    fn feature_sets_round_a_cone_point_are_dropped() {
+        use crate::mesh::isotropic::{IsotropicOptions, isotropic_remesh};
+        let n = 48;
+        let mut p = vec![DVec3::new(0.0, 0.0, 3.0), DVec3::ZERO];
+        p.extend((0..n).map(|i| {
+            let t = std::f64::consts::TAU * i as f64 / n as f64;
+            DVec3::new(t.cos(), t.sin(), 0.0)
+        }));
+        let rim = |i: usize| (2 + i % n) as u32;
+        let faces: Vec<[u32; 3]> = (0..n)
+            .flat_map(|i| [[0, rim(i), rim(i + 1)], [1, rim(i + 1), rim(i)]])
+            .collect();
+        let raw = TriMesh::from_triangles(p, faces).unwrap();
+        let m =
+            isotropic_remesh(&raw, &IsotropicOptions::for_vertices(&raw, 12_000, 35.0)).unwrap();
+        let scale = (m.total_area() / 5_000.0).sqrt();
+        let all = feature_edges(&m, 40.0);
+        let at_apex = |e: usize| m.edge_vertices(e).iter().all(|&v| m.position(v).z > 0.5);
+        let apex: Vec<usize> = all.iter().copied().filter(|&e| at_apex(e)).collect();
+        let apex_length: f64 = apex
+            .iter()
+            .map(|&e| {
+                let [a, b] = m.edge_vertices(e);
+                (m.position(a) - m.position(b)).length()
+            })
+            .sum();
+        // Long enough to pass the length rule: only the cone point's drops them.
+        assert!(
+            apex_length > MIN_FEATURE_CELLS * scale,
+            "{} apex edges, {apex_length} long (cell {scale})",
+            apex.len()
+        );
+        let kept = significant_feature_edges(&m, 40.0, scale);
+        assert!(kept.iter().all(|&e| !at_apex(e)));
+        // The rim stays whole: one closed curve.
+        assert_eq!(kept.len(), all.len() - apex.len());
+        let curves = detect_features(&m, 40.0, scale);
+        assert_eq!(curves.len(), 1);
+        assert!(curves[0].closed);
+        // A box's corners are no cone points.
+        let c = cube(2);
+        assert_eq!(significant_feature_edges(&c, 40.0, 0.1).len(), 48);
     }
 
     /// A capped cylinder: `generate::cylinder` with a fan at each end (two circular creases).
