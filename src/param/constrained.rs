@@ -420,8 +420,6 @@ fn pin_translations(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::generate;
-    use crate::param::{ParamOptions, QuadCover, fit_matchings, projected_frames};
 
     fn far(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
         a.iter()
@@ -436,12 +434,7 @@ mod tests {
     /// ranking relies on when it solves a step and its mirror image once).
     #[test]
     fn the_constrained_step_is_the_global_step_under_its_fixes() {
-        let mesh = generate::icosphere(3);
-        let frames = projected_frames(&mesh, DVec3::new(0.3, 0.2, 1.0), 6.0);
-        let matchings = fit_matchings(&mesh, 4, &frames);
-        let qc = QuadCover::new(&mesh, 4, &matchings, ParamOptions::default()).unwrap();
-        let local = qc.local_step(&mesh, &frames).unwrap();
-        assert!(local.gaps.len() >= 2, "{} gaps", local.gaps.len());
+        let (mesh, qc, local) = crate::param::sphere_with_gaps();
         let (cut, global, rots) = (&qc.cut, &qc.global, &qc.rots);
         let free = BTreeMap::new();
         let (uv, _) = solve(&mesh, cut, global, rots, &local.disk, &local.gaps, &free).unwrap();

@@ -1551,6 +1551,19 @@ pub fn fit_matchings(mesh: &TriMesh, symmetry: usize, frames: &[[DVec3; 2]]) -> 
         .collect()
 }
 
+/// A sphere with a projected field (singularities, so gaps to move), its QuadCover (N = 4)
+/// and local step: what the global steps' unit tests start from.
+#[cfg(test)]
+pub(crate) fn sphere_with_gaps() -> (TriMesh, QuadCover, LocalSolution) {
+    let mesh = crate::mesh::generate::icosphere(3);
+    let frames = projected_frames(&mesh, DVec3::new(0.3, 0.2, 1.0), 6.0);
+    let matchings = fit_matchings(&mesh, 4, &frames);
+    let qc = QuadCover::new(&mesh, 4, &matchings, ParamOptions::default()).unwrap();
+    let local = qc.local_step(&mesh, &frames).unwrap();
+    assert!(local.gaps.len() >= 2, "{} gaps", local.gaps.len());
+    (mesh, qc, local)
+}
+
 /// Frames V = J U with U the projection of a fixed direction onto each face (fallback to a face
 /// edge where the direction is normal), scaled by `scale`.
 pub fn projected_frames(mesh: &TriMesh, dir: DVec3, scale: f64) -> Vec<[DVec3; 2]> {

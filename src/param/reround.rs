@@ -941,19 +941,12 @@ fn collided(
 mod tests {
     use super::*;
     use crate::mesh::generate;
-    use crate::param::{ParamOptions, fit_matchings, projected_frames};
-    use glam::DVec3;
 
     /// The batched responses to a unit of each gap coordinate equal the difference of two
     /// global solves (a sphere with a projected field: singularities, so gaps to move).
     #[test]
     fn gap_responses_are_differences_of_global_maps() {
-        let mesh = generate::icosphere(3);
-        let frames = projected_frames(&mesh, DVec3::new(0.3, 0.2, 1.0), 6.0);
-        let matchings = fit_matchings(&mesh, 4, &frames);
-        let qc = QuadCover::new(&mesh, 4, &matchings, ParamOptions::default()).unwrap();
-        let local = qc.local_step(&mesh, &frames).unwrap();
-        assert!(local.gaps.len() >= 2, "{} gaps", local.gaps.len());
+        let (mesh, qc, local) = crate::param::sphere_with_gaps();
         let base = qc.global_uv(&mesh, &local, &local.gaps).unwrap();
         let units: Vec<(usize, usize)> = (0..local.gaps.len())
             .flat_map(|k| [(k, 0), (k, 1)])
