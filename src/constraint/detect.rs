@@ -143,8 +143,8 @@ fn cone_point(mesh: &TriMesh, vertices: &[usize], defects: &[f64], scale: f64) -
             .all(|&v| distance(v) <= CONE_POINT_CELLS * scale)
 }
 
-/// Feature edges ([`significant_feature_edges`] at `angle_deg`, sets shorter than
-/// [`MIN_FEATURE_CELLS`] `scale` dropped) chained into curves, split at junctions of three or
+/// Feature edges ([`significant_feature_edges`] at `angle_deg`: sets shorter than
+/// [`MIN_FEATURE_CELLS`] `scale` and those round a cone point dropped) chained into curves, split at junctions of three or
 /// more feature edges, at sharp turns ([`SHARP_TURN_DEG`]) and where a chain meets the
 /// boundary; see the module documentation for the rules.
 /// `scale` (model units, the grid size; 0 for none) is the length over which a turn must also
