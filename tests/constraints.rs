@@ -1839,19 +1839,8 @@ fn folds_left_under_curves_name_the_curves_beside_them() {
 /// is a curve now, and the map does not fold.
 #[test]
 fn a_cone_apex_makes_no_feature_curves() {
-    use glam::DVec3;
     use quadcover::mesh::isotropic::{PREPARED_FEATURE_ANGLE, isotropic_remesh, prepared_options};
-    let n = 48;
-    let mut p = vec![DVec3::new(0.0, 0.0, 3.0), DVec3::ZERO];
-    p.extend((0..n).map(|i| {
-        let t = std::f64::consts::TAU * i as f64 / n as f64;
-        DVec3::new(0.5 * t.cos(), 0.5 * t.sin(), 0.0)
-    }));
-    let rim = |i: usize| (2 + i % n) as u32;
-    let faces: Vec<[u32; 3]> = (0..n)
-        .flat_map(|i| [[0, rim(i), rim(i + 1)], [1, rim(i + 1), rim(i)]])
-        .collect();
-    let raw = TriMesh::from_triangles(p, faces).unwrap();
+    let raw = generate::raw_cone(0.5, 3.0, 48);
     let target = 3000;
     let opts = prepared_options(&raw, Some(target), PREPARED_FEATURE_ANGLE);
     let mesh = std::sync::Arc::new(isotropic_remesh(&raw, &opts).unwrap());

@@ -453,17 +453,7 @@ mod tests {
     #[test]
     fn feature_sets_round_a_cone_point_are_dropped() {
         use crate::mesh::isotropic::{IsotropicOptions, isotropic_remesh};
-        let n = 48;
-        let mut p = vec![DVec3::new(0.0, 0.0, 3.0), DVec3::ZERO];
-        p.extend((0..n).map(|i| {
-            let t = std::f64::consts::TAU * i as f64 / n as f64;
-            DVec3::new(t.cos(), t.sin(), 0.0)
-        }));
-        let rim = |i: usize| (2 + i % n) as u32;
-        let faces: Vec<[u32; 3]> = (0..n)
-            .flat_map(|i| [[0, rim(i), rim(i + 1)], [1, rim(i + 1), rim(i)]])
-            .collect();
-        let raw = TriMesh::from_triangles(p, faces).unwrap();
+        let raw = generate::raw_cone(1.0, 3.0, 48);
         let m =
             isotropic_remesh(&raw, &IsotropicOptions::for_vertices(&raw, 12_000, 35.0)).unwrap();
         let scale = (m.total_area() / 5_000.0).sqrt();

@@ -179,6 +179,22 @@ pub fn raw_cylinder(r: f64, h: f64, nu: usize) -> TriMesh {
     build(p, f)
 }
 
+/// A closed cone as a CAD exporter tessellates it: apex at height `h` over a base circle of
+/// radius `r` with `nu` rim vertices, the side a fan from the apex, the base a fan from its
+/// centre.
+pub fn raw_cone(r: f64, h: f64, nu: usize) -> TriMesh {
+    let mut p = vec![DVec3::new(0.0, 0.0, h), DVec3::ZERO];
+    p.extend((0..nu).map(|i| {
+        let a = TAU * i as f64 / nu as f64;
+        DVec3::new(r * a.cos(), r * a.sin(), 0.0)
+    }));
+    let rim = |i: usize| (2 + i % nu) as u32;
+    let f = (0..nu)
+        .flat_map(|i| [[0, rim(i), rim(i + 1)], [1, rim(i + 1), rim(i)]])
+        .collect();
+    build(p, f)
+}
+
 /// A torus of revolution around z: major radius `big_r`, minor `r`, `nu` × `nv` quads.
 /// Vertex (i, j) sits at angles u = 2πi/nu (around z) and v = 2πj/nv (around the tube).
 pub fn torus(big_r: f64, r: f64, nu: usize, nv: usize) -> TriMesh {
