@@ -1861,3 +1861,40 @@ fn a_cone_apex_makes_no_feature_curves() {
     check_geometric(&base, &state, &solved);
     assert_eq!(p.flipped_faces, 0);
 }
+
+/// A box with three slots across its top, features at 40°: the
+/// Hermite basis of its combinatorial equations (in the rows' order) had entries of 10²⁵,
+/// beyond what LLL's floating-point Gram–Schmidt resolves, so the "reduced" basis stayed that
+/// long and the rounding put curve values millions of cells off (every face folded, the
+/// extraction refused the map). Another elimination order starts short (entries of 3).
+#[test]
+fn a_slotted_box_rounds_its_curve_values_near_the_map() {
+    // The raw CSG tessellation (32 vertices; trimesh's boolean difference of a 2 × 2 × 1 box
+    // and three 0.3-wide bars), remeshed as `solve` remeshes a raw tessellation.
+    use quadcover::mesh::isotropic::{PREPARED_FEATURE_ANGLE, isotropic_remesh, prepared_options};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/slotted_box.obj");
+    let raw = quadcover::load::load_mesh(&path).unwrap().mesh;
+    let opts = prepared_options(&raw, None, PREPARED_FEATURE_ANGLE);
+    let mesh = std::sync::Arc::new(isotropic_remesh(&raw, &opts).unwrap());
+    let base = Base::for_mesh(mesh, Settings::default()).unwrap();
+    let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
+    let p = &solved.param;
+    let extent = p.uv.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+    eprintln!(
+        "slotted box: {} curves, {} folds before the repair, {} after, UVs within ±{extent:.0}, \
+         conformal distortion {:.3}",
+        state.curves.len(),
+        p.flipped_faces_before_repair,
+        p.flipped_faces,
+        p.conformal_distortion.mean
+    );
+    check_geometric(&base, &state, &solved);
+    assert_eq!(p.flipped_faces, 0);
+    // The part is about 3 × 2 × 1 at about 10 000 grid vertices: some 60 cells across.
+    assert!(extent < 500.0, "UVs reach {extent}");
+    assert!(
+        p.conformal_distortion.mean < 1.5,
+        "{:?}",
+        p.conformal_distortion
+    );
+}

@@ -40,17 +40,50 @@ pub(crate) fn reduced_kernel(
     rows: &[Vec<(usize, i128)>],
     n: usize,
 ) -> Result<Vec<Vec<i128>>, String> {
-    if rows.len() * n * n > DENSE_MAX_WORK
-        && let Ok(mut basis) = kernel_by_substitution(rows, n)
-    {
-        lll_reduce(&mut basis)?;
-        return Ok(basis);
+    let reduced = |basis: Result<Vec<Vec<i128>>, String>| {
+        basis.and_then(|mut b| lll_reduce(&mut b).map(|()| b))
+    };
+    let largest = |b: &[Vec<i128>]| b.iter().flatten().map(|x| x.unsigned_abs()).max();
+    let dense = rows.len() * n * n <= DENSE_MAX_WORK;
+    // In the rows' order first (what every measured solve used; by substitution when the dense
+    // transform is too much work), then the other ways, while the reduced basis stays long: the
+    // Hermite basis can grow past what LLL's floating-point Gram–Schmidt resolves (a box with
+    // three slots and features at 40°: entries of 10²⁵ before and after, curve values of
+    // millions of cells, every face folded), and another elimination order starts it shorter.
+    let mut best: Option<Vec<Vec<i128>>> = None;
+    let mut failed = None;
+    for way in 0..3 {
+        let basis = match (way, dense) {
+            (0, true) | (2, false) => kernel_basis(rows, n, false),
+            (1, _) => kernel_basis(rows, n, true),
+            _ => kernel_by_substitution(rows, n),
+        };
+        match reduced(basis) {
+            Ok(b) if largest(&b).is_none_or(|x| x <= SHORT_ENTRY) => return Ok(b),
+            Ok(b) => {
+                if best.as_ref().is_none_or(|c| largest(&b) < largest(c)) {
+                    best = Some(b);
+                }
+            }
+            Err(e) => failed = Some(e),
+        }
     }
-    // In the rows' order first (what every measured solve used); if that overflows, robustly.
-    let mut basis = kernel_basis(rows, n, false).or_else(|_| kernel_basis(rows, n, true))?;
-    lll_reduce(&mut basis)?;
-    Ok(basis)
+    match best {
+        Some(b) if largest(&b).is_some_and(|x| x <= EXACT_ENTRY) => Ok(b),
+        Some(b) => Err(format!(
+            "the constraint lattice has no short basis (entries up to {:.1e})",
+            largest(&b).unwrap_or(0) as f64
+        )),
+        None => Err(failed.unwrap_or_else(|| "no constraint lattice".to_string())),
+    }
 }
+
+/// Entries up to which a reduced kernel basis is taken as it is (far above what curve
+/// equations give: a few units).
+const SHORT_ENTRY: u128 = 1 << 31;
+
+/// Entries up to which the rounding ([`nearest_in_lattice`], in f64) stays exact.
+const EXACT_ENTRY: u128 = 1 << 52;
 
 /// Rows × variables² past which [`reduced_kernel`] substitutes first ([`kernel_by_substitution`])
 /// instead of reducing the dense n × n transform: spot with features at 12° (1493 rows over
@@ -315,10 +348,13 @@ pub(crate) fn nearest_in_lattice(
             break;
         }
     }
-    let w: Vec<i64> = (0..n)
-        .map(|r| (0..k).map(|c| basis[c][r] as i64 * z[c]).sum())
-        .collect();
-    Ok(w)
+    // In i128: the entries may reach [`EXACT_ENTRY`].
+    (0..n)
+        .map(|r| {
+            let v: i128 = (0..k).map(|c| basis[c][r] * z[c] as i128).sum();
+            i64::try_from(v).map_err(|_| "integer overflow in the constraint rounding".to_string())
+        })
+        .collect()
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
