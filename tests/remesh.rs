@@ -518,7 +518,8 @@ fn a_smoother_field_meets_the_shape_targets_on_max_planck() {
     assert!(remesh.faces.iter().all(|f| f.len() == 4), "not all quads");
     let q = quadcover::extract::quality(&remesh, base.mesh());
     eprintln!(
-        "max-planck, tau 0.1: {} vertices, {} irregular, {} singularities, RSD {:.1} / {:.1} %, corners {:.1}°–{:.1}°",
+        "max-planck, tau 0.1: {} vertices, {} irregular, {} singularities, RSD {:.1} / {:.1} %, \
+         corners {:.1}°–{:.1}°",
         q.vertices,
         q.irregular_vertices,
         solved.param.singularities.len(),
