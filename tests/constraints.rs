@@ -1899,3 +1899,42 @@ fn a_slotted_box_rounds_its_curve_values_near_the_map() {
         p.conformal_distortion
     );
 }
+
+/// Raw prisms (six vertices, as a CAD exporter writes them) over triangles with a 22° and a
+/// 26° corner, remeshed as `solve` remeshes raw tessellations, features at 40°: the +1/4 each
+/// cap needs went to the vertex off the curves nearest the apex, in the narrow part of the
+/// wedge, a cell from both creases; rounded onto the lattice it folded 4 faces after the
+/// repair, and the remesh patched 89 and 71 places. It goes where the wedge leaves it a cell of
+/// room now (`WEDGE_ROOM`).
+#[test]
+fn a_cap_singularity_gets_room_inside_an_acute_wedge() {
+    use quadcover::mesh::isotropic::{PREPARED_FEATURE_ANGLE, isotropic_remesh, prepared_options};
+    for (alpha, h) in [(22, 1.21208), (26, 1.4632)] {
+        let what = format!("raw prism over a {alpha}° triangle");
+        let corners = [[0.0, 0.0], [3.0, 0.0], [3.0, h]];
+        let positions: Vec<glam::DVec3> = [0.0, 1.0]
+            .iter()
+            .flat_map(|&z| corners.map(|[x, y]| glam::DVec3::new(x, y, z)))
+            .collect();
+        let faces = vec![
+            [0, 2, 1],
+            [3, 4, 5],
+            [0, 1, 4],
+            [0, 4, 3],
+            [1, 2, 5],
+            [1, 5, 4],
+            [2, 0, 3],
+            [2, 3, 5],
+        ];
+        let raw = TriMesh::from_triangles(positions, faces).unwrap();
+        let opts = prepared_options(&raw, None, PREPARED_FEATURE_ANGLE);
+        let mesh = std::sync::Arc::new(isotropic_remesh(&raw, &opts).unwrap());
+        let base = Base::for_mesh(mesh, Settings::default()).unwrap();
+        let (state, solved) = straight_features_unfolded(&base, 9, &what);
+        assert!(solved.param.miswound.is_empty(), "{what}");
+        let (remesh, share, _) = remesh_along_curves(&base, &state, &solved, &what);
+        remesh_checks::assert_manifold(&remesh, &what);
+        assert_eq!(remesh.patched_places, 0, "{what}");
+        assert!(share > 0.99, "{what}: {share}");
+    }
+}

@@ -31,6 +31,14 @@ const APEX_CLUSTER: f64 = 3.0;
 /// in grid cells (`constraint::acute_corners`).
 const CORNER_REACH: f64 = 1.0;
 
+/// How far from the curves, in grid cells, [`Base::off_curves_in_wedges`] moves a singularity
+/// when its region has room for it. Prisms over triangles with an acute corner of 18°, 22° and
+/// 26° (N = 4, features at 40°, the default density), moved to the nearest vertex off the
+/// curves: 4 folded faces each after the repair (the 18° one as triangulated by trimesh; the
+/// one of `tests/constraints.rs` none) and 81, 89 and 71 patched places in the remesh; with 1
+/// cell of room none and none (smallest remesh corner 6° → 18°); 1.5 cells gave the same.
+const WEDGE_ROOM: f64 = 1.0;
+
 /// How much farther (in units of 2π/N) from a junction's cone a singularity of the other sign
 /// may take the junction's index and still move onto it ([`Base::onto_junctions`]): ties
 /// only. A concave prism corner (defect −90°, N = 6: −1.5) with −1/3 on it and a +1/6 beside
@@ -922,6 +930,25 @@ impl Base {
                 if targets.is_empty() {
                     targets = region(f * reach).into_iter().filter(free).collect();
                 }
+            }
+            // Where the region has them, vertices [`WEDGE_ROOM`] from its curves: one beside a
+            // curve in the narrow part of the wedge is rounded onto a lattice point a cell or two
+            // from the curve's line and folds the faces between.
+            let wide = region(8.0 * reach);
+            let on_curves: Vec<glam::DVec3> = (wide.iter())
+                .filter(|&&q| curve_degree[q] > 0)
+                .map(|&q| self.mesh.position(q))
+                .collect();
+            let room = WEDGE_ROOM * self.grid_size();
+            let roomy: Vec<usize> = (wide.iter().copied())
+                .filter(free)
+                .filter(|&q| {
+                    let x = self.mesh.position(q);
+                    on_curves.iter().all(|&c| (c - x).length() >= room)
+                })
+                .collect();
+            if !roomy.is_empty() {
+                targets = roomy;
             }
             for p in movable {
                 let at = self.mesh.position(p);
