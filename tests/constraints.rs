@@ -783,8 +783,15 @@ fn extruded(
     height: f64,
     vertices: usize,
 ) -> std::sync::Arc<TriMesh> {
-    use glam::DVec3;
     use quadcover::mesh::isotropic::{IsotropicOptions, isotropic_remesh};
+    let raw = raw_extruded(polygon, cap, height);
+    let opts = IsotropicOptions::for_vertices(&raw, vertices, 35.0);
+    std::sync::Arc::new(isotropic_remesh(&raw, &opts).unwrap())
+}
+
+/// [`extruded`] as a CAD exporter writes it: the polygon's vertices only.
+fn raw_extruded(polygon: &[(f64, f64)], cap: &[[u32; 3]], height: f64) -> TriMesh {
+    use glam::DVec3;
     let layer = |z: f64| polygon.iter().map(move |&(x, y)| DVec3::new(x, y, z));
     let (positions, faces): (Vec<DVec3>, Vec<[u32; 3]>) = if height == 0.0 {
         (layer(0.0).collect(), cap.to_vec())
@@ -798,9 +805,14 @@ fn extruded(
         }
         (layer(0.0).chain(layer(height)).collect(), faces)
     };
-    let raw = TriMesh::from_triangles(positions, faces).unwrap();
-    let opts = IsotropicOptions::for_vertices(&raw, vertices, 35.0);
-    std::sync::Arc::new(isotropic_remesh(&raw, &opts).unwrap())
+    TriMesh::from_triangles(positions, faces).unwrap()
+}
+
+/// A raw tessellation remeshed as `solve` remeshes one by itself (`mesh::isotropic`).
+fn remeshed_as_solve_does(raw: &TriMesh) -> std::sync::Arc<TriMesh> {
+    use quadcover::mesh::isotropic::{PREPARED_FEATURE_ANGLE, isotropic_remesh, prepared_options};
+    let opts = prepared_options(raw, None, PREPARED_FEATURE_ANGLE);
+    std::sync::Arc::new(isotropic_remesh(raw, &opts).unwrap())
 }
 
 /// Corners of curves the smallest turn of the field would close: at 45° (N = 4) the
@@ -1871,11 +1883,9 @@ fn a_cone_apex_makes_no_feature_curves() {
 fn a_slotted_box_rounds_its_curve_values_near_the_map() {
     // The raw CSG tessellation (32 vertices; trimesh's boolean difference of a 2 × 2 × 1 box
     // and three 0.3-wide bars), remeshed as `solve` remeshes a raw tessellation.
-    use quadcover::mesh::isotropic::{PREPARED_FEATURE_ANGLE, isotropic_remesh, prepared_options};
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/slotted_box.obj");
     let raw = quadcover::load::load_mesh(&path).unwrap().mesh;
-    let opts = prepared_options(&raw, None, PREPARED_FEATURE_ANGLE);
-    let mesh = std::sync::Arc::new(isotropic_remesh(&raw, &opts).unwrap());
+    let mesh = remeshed_as_solve_does(&raw);
     let base = Base::for_mesh(mesh, Settings::default()).unwrap();
     let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
     let p = &solved.param;
@@ -1908,27 +1918,10 @@ fn a_slotted_box_rounds_its_curve_values_near_the_map() {
 /// room now (`WEDGE_ROOM`).
 #[test]
 fn a_cap_singularity_gets_room_inside_an_acute_wedge() {
-    use quadcover::mesh::isotropic::{PREPARED_FEATURE_ANGLE, isotropic_remesh, prepared_options};
     for (alpha, h) in [(22, 1.21208), (26, 1.4632)] {
         let what = format!("raw prism over a {alpha}° triangle");
-        let corners = [[0.0, 0.0], [3.0, 0.0], [3.0, h]];
-        let positions: Vec<glam::DVec3> = [0.0, 1.0]
-            .iter()
-            .flat_map(|&z| corners.map(|[x, y]| glam::DVec3::new(x, y, z)))
-            .collect();
-        let faces = vec![
-            [0, 2, 1],
-            [3, 4, 5],
-            [0, 1, 4],
-            [0, 4, 3],
-            [1, 2, 5],
-            [1, 5, 4],
-            [2, 0, 3],
-            [2, 3, 5],
-        ];
-        let raw = TriMesh::from_triangles(positions, faces).unwrap();
-        let opts = prepared_options(&raw, None, PREPARED_FEATURE_ANGLE);
-        let mesh = std::sync::Arc::new(isotropic_remesh(&raw, &opts).unwrap());
+        let raw = raw_extruded(&[(0.0, 0.0), (3.0, 0.0), (3.0, h)], &[[0, 1, 2]], 1.0);
+        let mesh = remeshed_as_solve_does(&raw);
         let base = Base::for_mesh(mesh, Settings::default()).unwrap();
         let (state, solved) = straight_features_unfolded(&base, 9, &what);
         assert!(solved.param.miswound.is_empty(), "{what}");

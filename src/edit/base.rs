@@ -35,8 +35,9 @@ const CORNER_REACH: f64 = 1.0;
 /// when its region has room for it. Prisms over triangles with an acute corner of 18°, 22° and
 /// 26° (N = 4, features at 40°, the default density), moved to the nearest vertex off the
 /// curves: 4 folded faces each after the repair (the 18° one as triangulated by trimesh; the
-/// one of `tests/constraints.rs` none) and 81, 89 and 71 patched places in the remesh; with 1
-/// cell of room none and none (smallest remesh corner 6° → 18°); 1.5 cells gave the same.
+/// one of `tests/constraints.rs` none) and 81, 89 and 71 patched places in the remesh; with a
+/// cell of room no fold and no patched place (the 18° one's smallest remesh corner 6° → 18°);
+/// 1.5 cells gave the same.
 const WEDGE_ROOM: f64 = 1.0;
 
 /// How much farther (in units of 2π/N) from a junction's cone a singularity of the other sign

@@ -50,15 +50,18 @@ pub(crate) fn reduced_kernel(
     // Hermite basis can grow past what LLL's floating-point Gram–Schmidt resolves (a box with
     // three slots and features at 40°: entries of 10²⁵ before and after, curve values of
     // millions of cells, every face folded), and another elimination order starts it shorter.
+    type Way = fn(&[Vec<(usize, i128)>], usize) -> Result<Vec<Vec<i128>>, String>;
+    let in_order: Way = |rows, n| kernel_basis(rows, n, false);
+    let robustly: Way = |rows, n| kernel_basis(rows, n, true);
+    let ways: [Way; 3] = if dense {
+        [in_order, robustly, kernel_by_substitution]
+    } else {
+        [kernel_by_substitution, in_order, robustly]
+    };
     let mut best: Option<Vec<Vec<i128>>> = None;
     let mut failed = None;
-    for way in 0..3 {
-        let basis = match (way, dense) {
-            (0, true) | (2, false) => kernel_basis(rows, n, false),
-            (1, _) => kernel_basis(rows, n, true),
-            _ => kernel_by_substitution(rows, n),
-        };
-        match reduced(basis) {
+    for way in ways {
+        match reduced(way(rows, n)) {
             Ok(b) if largest(&b).is_none_or(|x| x <= SHORT_ENTRY) => return Ok(b),
             Ok(b) => {
                 if best.as_ref().is_none_or(|c| largest(&b) < largest(c)) {
