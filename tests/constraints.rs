@@ -358,11 +358,13 @@ fn bunny_aligned_at_1500(n: u32) -> Option<(Base, EditState, Solved)> {
     Some((base, state, solved))
 }
 
-/// A constrained map whose gaps were rounded again is rewound afterwards too, in the re-rounded
-/// map's space (it was skipped: the space at hand was the first map's). The bunny with its
-/// boundary aligned, N = 4 at 1500 vertices: 28 mis-wound vertices left before, 16 now.
+/// The bunny with its boundary aligned, N = 4 at 1500 vertices, keeps few wrongly wound
+/// vertices. It kept 28 while a constrained map whose gaps were rounded again was not rewound
+/// afterwards (the space at hand was the first map's), 16 once it was; since the rounding keeps
+/// branch points off the lines beside them (`param::constraints::off_lines`, 2026-12-07) its
+/// first map needs no re-rounding and keeps 8 (the re-rounding itself is checked on fandisk).
 #[test]
-fn constrained_maps_are_rewound_after_a_rerounding() {
+fn the_aligned_bunny_at_1500_vertices_keeps_few_wrongly_wound_vertices() {
     let Some((base, state, solved)) = bunny_aligned_at_1500(4) else {
         return;
     };
@@ -373,8 +375,7 @@ fn constrained_maps_are_rewound_after_a_rerounding() {
         p.rerounded_gaps
     );
     assert_eq!(p.flipped_faces, 0);
-    assert!(!p.rerounded_gaps.is_empty(), "no gap was rounded again");
-    assert!(p.miswound.len() <= 16, "{} mis-wound", p.miswound.len());
+    assert!(p.miswound.len() <= 8, "{} mis-wound", p.miswound.len());
     check_geometric(&base, &state, &solved);
 }
 
@@ -1930,4 +1931,144 @@ fn a_cap_singularity_gets_room_inside_an_acute_wedge() {
         assert_eq!(remesh.patched_places, 0, "{what}");
         assert!(share > 0.99, "{what}: {share}");
     }
+}
+
+/// Singularities off the geometric curves that the map puts on the lattice line of a curve
+/// beside them: within `cells` grid cells in space, in one chart with the singularity (faces
+/// joined where their corners' UVs agree), a curve edge whose line passes through it, with the
+/// singularity beside the line's run of curve edges rather than beyond its end (where a line may
+/// run through it: a separatrix meeting a crease's end). Rounded onto such a line, a singularity
+/// collapses the faces between it and the curve.
+fn singularities_on_curve_lines(
+    base: &Base,
+    state: &EditState,
+    p: &Parameterization,
+    cells: f64,
+) -> Vec<usize> {
+    use std::collections::{HashSet, VecDeque};
+    let mesh = base.mesh();
+    let (fam, s) = families(base.settings().symmetry as usize);
+    let reach = cells * base.grid_size();
+    let mut curve_edge = HashSet::new();
+    let mut on_curve = HashSet::new();
+    for c in state.curves.values() {
+        if c.kind != CurveKind::Geometric {
+            continue;
+        }
+        for (a, b) in c.segments() {
+            curve_edge.insert((a.min(b), a.max(b)));
+            on_curve.extend([a, b]);
+        }
+    }
+    let same = |x: [f64; 2], y: [f64; 2]| (x[0] - y[0]).abs() < 1e-9 && (x[1] - y[1]).abs() < 1e-9;
+    let value = |nl: &[f64; 2], x: [f64; 2]| (nl[0] * x[0] + nl[1] * x[1]) / s;
+    let mut out = Vec::new();
+    for v in p.singularities.iter().map(|s| s.vertex) {
+        if on_curve.contains(&v) {
+            continue;
+        }
+        let pv = mesh.position(v);
+        let on_line = mesh.outgoing(v).any(|h0| {
+            let cone = p.uv[h0];
+            // Curve edges of the chart within reach on a line through the singularity, per line.
+            let mut lines: Vec<(usize, Vec<(usize, usize)>)> = Vec::new();
+            let mut seen = HashSet::from([mesh.face_of(h0)]);
+            let mut queue = VecDeque::from([mesh.face_of(h0)]);
+            while let Some(f) = queue.pop_front() {
+                for h in 3 * f..3 * f + 3 {
+                    let (a, b) = (mesh.from(h), mesh.to(h));
+                    let (pa, pb) = (p.uv[h], p.uv[mesh.next(h)]);
+                    if curve_edge.contains(&(a.min(b), a.max(b))) {
+                        for (l, nl) in fam.iter().enumerate() {
+                            let (x, y, z) = (value(nl, pa), value(nl, pb), value(nl, cone));
+                            if (x - y).abs() < 1e-6 && (x - z).abs() < 1e-6 {
+                                let e = (a.min(b), a.max(b));
+                                match lines.iter_mut().find(|(m, _)| *m == l) {
+                                    Some((_, es)) if !es.contains(&e) => es.push(e),
+                                    Some(_) => {}
+                                    None => lines.push((l, vec![e])),
+                                }
+                            }
+                        }
+                    }
+                    let Some(t) = mesh.twin(h) else { continue };
+                    let g = mesh.face_of(t);
+                    if seen.contains(&g)
+                        || !same(p.uv[t], pb)
+                        || !same(p.uv[mesh.next(t)], pa)
+                        || mesh.face_centroid(g).distance(pv) > reach
+                    {
+                        continue;
+                    }
+                    seen.insert(g);
+                    queue.push_back(g);
+                }
+            }
+            // Beside a run: the point of its edges nearest the singularity is inside an edge,
+            // or a vertex two of them share.
+            lines.iter().any(|(_, edges)| {
+                let mut best = (f64::INFINITY, None);
+                for &(a, b) in edges {
+                    let (pa, pb) = (mesh.position(a), mesh.position(b));
+                    let t = ((pv - pa).dot(pb - pa) / (pb - pa).length_squared()).clamp(0.0, 1.0);
+                    let d = pv.distance(pa + t * (pb - pa));
+                    let at = if t == 0.0 {
+                        Some(a)
+                    } else if t == 1.0 {
+                        Some(b)
+                    } else {
+                        None
+                    };
+                    if d < best.0 {
+                        best = (d, at);
+                    }
+                }
+                match best.1 {
+                    None => best.0.is_finite(),
+                    Some(x) => edges.iter().filter(|&&(a, b)| a == x || b == x).count() >= 2,
+                }
+            })
+        });
+        if on_line {
+            out.push(v);
+        }
+    }
+    out
+}
+
+/// A raw L-shaped bracket with a hole across its arm (trimesh: the L polygon (0, 0), (3, 0),
+/// (3, 0.5), (0.5, 0.5), (0.5, 2), (0, 2) extruded by 1, less a cylinder of radius 0.15 with 24
+/// sections through (2, 0.25, 0.5) along y; 3000 vertices, features at 40°, remeshed as `solve`
+/// remeshes raw tessellations): the rounding took the −1/4 singularities two cells from the
+/// hole's rim, whose line the local map, not yet held to the rim, put a fraction of a cell
+/// away, onto the rim's line (4 of them), and the repair wound them wrongly (10 mis-wound
+/// vertices, 5 patched places in the remesh). The rounding keeps them on their side of the
+/// lines beside them now (`param::constraints::off_lines`).
+#[test]
+fn singularities_beside_a_rim_keep_off_its_line() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bracket.obj");
+    let raw = quadcover::load::load_mesh(&path).unwrap().mesh;
+    let mesh = remeshed_as_solve_does(&raw);
+    let settings = Settings {
+        target_vertices: Some(3000),
+        ..Settings::default()
+    };
+    let base = Base::for_mesh(mesh, settings).unwrap();
+    let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
+    let p = &solved.param;
+    let on_lines = singularities_on_curve_lines(&base, &state, p, 3.0);
+    eprintln!(
+        "bracket at 3000 vertices: {} singularities, {} on curve lines beside them, {} mis-wound, {} folds",
+        p.singularities.len(),
+        on_lines.len(),
+        p.miswound.len(),
+        p.flipped_faces
+    );
+    check_geometric(&base, &state, &solved);
+    assert!(on_lines.is_empty(), "on curve lines: {on_lines:?}");
+    assert_eq!(p.flipped_faces, 0);
+    assert!(p.miswound.is_empty(), "mis-wound: {:?}", p.miswound);
+    let (remesh, _, _) = remesh_along_curves(&base, &state, &solved, "bracket");
+    remesh_checks::assert_manifold(&remesh, "bracket");
+    assert_eq!(remesh.patched_places, 0);
 }

@@ -33,6 +33,8 @@ use super::global::GlobalSystem;
 use super::rot::{Aff, Lattice, Lin, Rots, apply, transpose};
 use crate::mesh::TriMesh;
 
+mod off_lines;
+
 /// A constraint curve as QuadCover takes it: mesh vertices (consecutive ones sharing an edge,
 /// the first not repeated when `closed`).
 #[derive(Clone, Copy, Debug)]
@@ -294,6 +296,8 @@ pub(crate) struct Traced {
     /// The reduced lattice basis of C_c w = 0 over [`Traced::involved`] (computed once: the
     /// re-rounding rounds many targets under the same equations).
     kernel: std::sync::OnceLock<Result<Vec<Vec<i128>>, String>>,
+    /// Branch points beside geometric lines they are not on ([`off_lines`]).
+    guards: Vec<off_lines::Guard>,
 }
 
 /// Whether the vertex at position `i` of a piece is the tip of an ear: it and its two
@@ -317,6 +321,20 @@ fn is_ear_tip(mesh: &TriMesh, verts: &[usize], closed: bool, i: usize) -> bool {
             let f = mesh.face(mesh.face_of(h));
             f.contains(&prev) && f.contains(&next)
         })
+}
+
+/// The sign nᵀ(φ − φ_q) takes in `corner`'s face off the line through its vertex q (normal
+/// `n`), on the local step's map: the face's vertex farthest from the line decides (the other
+/// is q's neighbour on the curve).
+fn left_sign(mesh: &TriMesh, uv: &[[f64; 2]], corner: usize, n: [f64; 2]) -> f64 {
+    let q = uv[corner];
+    let off = |c: usize| n[0] * (uv[c][0] - q[0]) + n[1] * (uv[c][1] - q[1]);
+    let (a, b) = (off(mesh.next(corner)), off(mesh.prev(corner)));
+    if a.abs() > b.abs() {
+        a.signum()
+    } else {
+        b.signum()
+    }
 }
 
 /// An integer equation Σ a_k w_k = 0, sparse.
@@ -386,7 +404,15 @@ impl Traced {
             emits: Vec::new(),
             ears: Vec::new(),
             kernel: std::sync::OnceLock::new(),
+            guards: Vec::new(),
         };
+        // The guards keeping branch points off the lines beside them ([`off_lines`]), for
+        // quads only (the curves' frames are the field's and the lattice is square): with
+        // N = 6 they took folds away on some CAD parts and added them on others (the cross
+        // plate 117 → 132, a T-shaped prism at 20 000 vertices 0 → 13), and stripes (N = 2)
+        // keep their folds for other reasons (docs/untangling.md).
+        let quads = families.is_field() && lattice != Lattice::G6;
+        let mut lines_at: Vec<off_lines::LineAt> = Vec::new();
         // Per curve: forms at its emissions.
         let mut fixed_rows: Vec<(Form, usize)> = Vec::new();
         for (ci, piece) in pieces.iter().enumerate() {
@@ -424,6 +450,15 @@ impl Traced {
                 // Value of the line in this chart: s c + nᵀ t(W).
                 let mut form = lin_form(&e.chart.lin, n, lines);
                 *form.entry(cvar).or_insert(0.0) += 1.0;
+                if quads && c.geometric && !e.closing {
+                    lines_at.push(off_lines::LineAt {
+                        face: mesh.face_of(e.corner),
+                        piece: ci,
+                        n,
+                        line: form.clone(),
+                        left: left_sign(mesh, local_uv, e.corner, n),
+                    });
+                }
                 // c estimate from the local map: nᵀψ/s − nᵀt(W*)/s.
                 let psi = local_uv[e.corner];
                 let mut tf = form.clone();
@@ -488,6 +523,49 @@ impl Traced {
             out.emits.push(emits);
             out.ears.push(ears);
         }
+        out.guards = if !quads {
+            Vec::new()
+        } else {
+            let mut on_piece = vec![false; mesh.n_vertices()];
+            let mut edge_piece = vec![NONE; mesh.n_edges()];
+            for (ci, piece) in pieces.iter().enumerate() {
+                if !curves[piece.curve].geometric {
+                    continue;
+                }
+                let vs = &piece.vertices;
+                for &v in vs {
+                    on_piece[v] = true;
+                }
+                let closing = piece.closed.then(|| (vs[vs.len() - 1], vs[0]));
+                for (a, b) in vs.windows(2).map(|w| (w[0], w[1])).chain(closing) {
+                    if let Some(h) = mesh.halfedge_to(a, b) {
+                        edge_piece[mesh.edge(h)] = ci as u32;
+                    }
+                }
+            }
+            let measured: Vec<f64> = w_measured.iter().chain(&out.measured_c).copied().collect();
+            let ends: Vec<Vec<usize>> = pieces
+                .iter()
+                .map(
+                    |p| match (p.closed, p.vertices.first(), p.vertices.last()) {
+                        (false, Some(&a), Some(&b)) => vec![a, b],
+                        _ => Vec::new(),
+                    },
+                )
+                .collect();
+            off_lines::guards(
+                mesh,
+                cut,
+                global,
+                &out.lines,
+                frames,
+                &on_piece,
+                &edge_piece,
+                &lines_at,
+                &ends,
+                &measured,
+            )
+        };
         // Integer equations: fixed values on lines, and lines of one family meeting.
         let mut rows: Vec<(Form, Vec<usize>)> =
             fixed_rows.into_iter().map(|(f, c)| (f, vec![c])).collect();
@@ -588,6 +666,7 @@ impl Traced {
                 w[k] = sol[i] as f64;
             }
         }
+        self.keep_off_lines(&mut w, &target);
         let gaps = (0..ng)
             .map(|k| self.lines.vector([w[2 * k], w[2 * k + 1]]))
             .collect();
