@@ -192,6 +192,12 @@ fn fandisk_features_lie_on_parameter_lines() {
             "singularity {p} is one edge off curve vertex {beside:?}"
         );
     }
+    // Nor is one farther off rounded onto a curve's line beside it (`off_lines`).
+    let on_lines = singularities_on_curve_lines(&base, &state, &solved.param, 3.0);
+    assert!(
+        on_lines.is_empty(),
+        "on curve lines beside them: {on_lines:?}"
+    );
     let through = singular
         .iter()
         .filter(|&&p| {
