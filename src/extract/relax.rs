@@ -254,14 +254,7 @@ struct ChordFit {
 
 /// The point of segment [a, b] closest to q (a for a degenerate segment).
 fn closest_on_segment(q: DVec3, a: DVec3, b: DVec3) -> DVec3 {
-    let ab = b - a;
-    let l2 = ab.length_squared();
-    let t = if l2 > 0.0 {
-        ((q - a).dot(ab) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    a + ab * t
+    a + (b - a) * crate::mesh::segment_parameter(q, a, b)
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

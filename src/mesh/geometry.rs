@@ -5,6 +5,18 @@ use glam::DVec3;
 
 use super::TriMesh;
 
+/// Where on segment [a, b] the point closest to q lies: t in [0, 1], the point a + t (b − a)
+/// (0 for a degenerate segment).
+pub fn segment_parameter(q: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let ab = b - a;
+    let l2 = ab.length_squared();
+    if l2 > 0.0 {
+        ((q - a).dot(ab) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
 impl TriMesh {
     /// Cross product of two edge vectors of face `f`: twice the area times the unit normal.
     pub fn face_area_vector(&self, f: usize) -> DVec3 {

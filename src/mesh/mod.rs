@@ -10,6 +10,7 @@ pub(crate) mod disjoint;
 mod error;
 pub mod generate;
 mod geometry;
+pub use geometry::segment_parameter;
 pub(crate) mod heap;
 pub mod isotropic;
 pub mod soup;

@@ -196,43 +196,41 @@ pub(super) fn guards(
 /// The distance from `p` to the segment a–b, and which end is nearest when an end is (0: a,
 /// 1: b).
 fn nearest_on_segment(p: DVec3, a: DVec3, b: DVec3) -> (f64, Option<u8>) {
-    let ab = b - a;
-    let t = (p - a).dot(ab) / ab.length_squared().max(f64::MIN_POSITIVE);
+    let t = crate::mesh::segment_parameter(p, a, b);
     if t <= 0.0 {
         (p.distance(a), Some(0))
     } else if t >= 1.0 {
         (p.distance(b), Some(1))
     } else {
-        (p.distance(a + t * ab), None)
+        (p.distance(a + t * (b - a)), None)
+    }
+}
+
+impl Guard {
+    /// Whether `w` breaks the guard: the branch point on the line beside it, or across it.
+    fn broken_by(&self, w: &[f64]) -> bool {
+        self.side * eval(&self.form, w) <= 1e-9
     }
 }
 
 impl Traced {
-    /// The guards `w` breaks: a branch point on the line beside it, or across it.
+    /// The guards `w` breaks.
     fn broken(&self, w: &[f64]) -> usize {
-        self.guards
-            .iter()
-            .filter(|g| g.side * eval(&g.form, w) <= 1e-9)
-            .count()
+        self.guards.iter().filter(|g| g.broken_by(w)).count()
     }
 
     /// Mends the guards the rounded unknowns `w` break (see the module's comment); `target`:
     /// the measured values in the same coordinates.
     pub(super) fn keep_off_lines(&self, w: &mut Vec<f64>, target: &[f64]) {
-        let budget = STEPS_PER_GUARD * self.broken(w);
-        for _ in 0..budget {
-            let broken = self.broken(w);
+        let mut broken = self.broken(w);
+        for _ in 0..STEPS_PER_GUARD * broken {
             if broken == 0 {
                 return;
             }
             let dist =
                 |x: &[f64]| -> f64 { x.iter().zip(target).map(|(a, b)| (a - b) * (a - b)).sum() };
             let mut best: Option<(usize, f64, Vec<f64>)> = None;
-            for g in self
-                .guards
-                .iter()
-                .filter(|g| g.side * eval(&g.form, w) <= 1e-9)
-            {
+            for g in self.guards.iter().filter(|g| g.broken_by(w)) {
                 for (&k, &a) in &g.form {
                     if (a * DENOMINATOR).round() == 0.0 {
                         continue;
@@ -250,7 +248,10 @@ impl Traced {
                 }
             }
             match best {
-                Some((left, _, next)) if left < broken => *w = next,
+                Some((left, _, next)) if left < broken => {
+                    *w = next;
+                    broken = left;
+                }
                 _ => return,
             }
         }
