@@ -2078,3 +2078,46 @@ fn singularities_beside_a_rim_keep_off_its_line() {
     remesh_checks::assert_manifold(&remesh, "bracket");
     assert_eq!(remesh.patched_places, 0);
 }
+
+/// A raw cross-shaped plate with four round holes (trimesh: the union of the rectangles
+/// [−1, 1] × [−0.3, 0.3] and [−0.3, 0.3] × [−1, 1], less disks of radius 0.12 with 12 sections
+/// per quarter at (±0.7, 0) and (0, ±0.7), extruded by 0.2), remeshed to 10 000 vertices, N = 6,
+/// features at 40°, 3000 target vertices: the rounding put 7 branch points on the lines of
+/// curves beside them (within 3 cells), and 2 folds stayed after the repair. A map that keeps
+/// folds is tried again with the branch points moved off those lines (N = 6 only,
+/// `param::constraints::off_lines`): no fold.
+#[test]
+fn a_six_fold_map_that_folds_is_tried_with_branch_points_off_the_lines() {
+    use quadcover::mesh::isotropic::{IsotropicOptions, isotropic_remesh};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/cross_plate.obj");
+    let raw = quadcover::load::load_mesh(&path).unwrap().mesh;
+    let opts = IsotropicOptions::for_vertices(&raw, 10_000, 35.0);
+    let mesh = std::sync::Arc::new(isotropic_remesh(&raw, &opts).unwrap());
+    let settings = Settings {
+        symmetry: 6,
+        target_vertices: Some(3000),
+        ..Settings::default()
+    };
+    let base = Base::for_mesh(mesh, settings).unwrap();
+    let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
+    let p = &solved.param;
+    let on_lines = singularities_on_curve_lines(&base, &state, p, 3.0);
+    eprintln!(
+        "cross plate, N = 6: {} singularities, {} on curve lines beside them, {} mis-wound, {} folds before the repair, {} after, {} gaps re-rounded",
+        p.singularities.len(),
+        on_lines.len(),
+        p.miswound.len(),
+        p.flipped_faces_before_repair,
+        p.flipped_faces,
+        p.rerounded_gaps.len()
+    );
+    check_geometric(&base, &state, &solved);
+    assert_eq!(p.flipped_faces, 0);
+    let what = "cross plate, N = 6";
+    let (remesh, share, _) = remesh_along_curves(&base, &state, &solved, what);
+    remesh_checks::assert_manifold(&remesh, what);
+    eprintln!(
+        "{what}: {} patched places, share {share}",
+        remesh.patched_places
+    );
+}

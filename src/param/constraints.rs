@@ -298,6 +298,9 @@ pub(crate) struct Traced {
     kernel: std::sync::OnceLock<Result<Vec<Vec<i128>>, String>>,
     /// Branch points beside geometric lines they are not on ([`off_lines`]).
     guards: Vec<off_lines::Guard>,
+    /// Whether [`Traced::round`] mends the guards (quads), or only [`Traced::off_lines_try`]
+    /// does, on request (N = 6).
+    mend_in_round: bool,
 }
 
 /// Whether the vertex at position `i` of a piece is the tip of an ear: it and its two
@@ -405,13 +408,17 @@ impl Traced {
             ears: Vec::new(),
             kernel: std::sync::OnceLock::new(),
             guards: Vec::new(),
+            mend_in_round: false,
         };
-        // The guards keeping branch points off the lines beside them ([`off_lines`]), for
-        // quads only (the curves' frames are the field's and the lattice is square): with
-        // N = 6 they took folds away on some CAD parts and added them on others (the cross
-        // plate 117 → 132, a T-shaped prism at 20 000 vertices 0 → 13), and stripes (N = 2)
-        // keep their folds for other reasons (docs/untangling.md).
-        let quads = families.is_field() && lattice != Lattice::G6;
+        // The guards keeping branch points off the lines beside them ([`off_lines`]): for
+        // quads mended in every rounding; with N = 6 (three line families) only in a second
+        // try when the first map keeps folds, and broken only with the branch point on the
+        // line, not across it: mended in every rounding they took folds away on some CAD parts
+        // and added them on others (the cross plate 117 → 132, a T-shaped prism at 20 000
+        // vertices 0 → 13, docs/untangling.md). Stripes (N = 2) keep their folds for other
+        // reasons.
+        let guarded = families.is_field();
+        out.mend_in_round = guarded && lattice != Lattice::G6;
         let mut lines_at: Vec<off_lines::LineAt> = Vec::new();
         // Per curve: forms at its emissions.
         let mut fixed_rows: Vec<(Form, usize)> = Vec::new();
@@ -450,7 +457,7 @@ impl Traced {
                 // Value of the line in this chart: s c + nᵀ t(W).
                 let mut form = lin_form(&e.chart.lin, n, lines);
                 *form.entry(cvar).or_insert(0.0) += 1.0;
-                if quads && c.geometric && !e.closing {
+                if guarded && c.geometric && !e.closing {
                     lines_at.push(off_lines::LineAt {
                         face: mesh.face_of(e.corner),
                         piece: ci,
@@ -523,7 +530,7 @@ impl Traced {
             out.emits.push(emits);
             out.ears.push(ears);
         }
-        out.guards = if !quads {
+        out.guards = if !guarded {
             Vec::new()
         } else {
             let mut on_piece = vec![false; mesh.n_vertices()];
@@ -564,6 +571,11 @@ impl Traced {
                 &lines_at,
                 &ends,
                 &measured,
+                if out.mend_in_round {
+                    off_lines::Breaks::Across
+                } else {
+                    off_lines::Breaks::OnLine
+                },
             )
         };
         // Integer equations: fixed values on lines, and lines of one family meeting.
@@ -640,11 +652,7 @@ impl Traced {
             .flat_map(|&g| self.lines.coords(g).map(f64::round))
             .chain(self.measured_c.iter().map(|c| c.round()))
             .collect();
-        let target: Vec<f64> = measured
-            .iter()
-            .flat_map(|&g| self.lines.coords(g))
-            .chain(self.measured_c.iter().copied())
-            .collect();
+        let target = self.target(measured);
         let (involved, rows) = self.involved();
         if !involved.is_empty() {
             let t: Vec<f64> = involved.iter().map(|&k| target[k]).collect();
@@ -666,11 +674,35 @@ impl Traced {
                 w[k] = sol[i] as f64;
             }
         }
-        self.keep_off_lines(&mut w, &target);
+        if self.mend_in_round {
+            self.keep_off_lines(&mut w, &target);
+        }
         let gaps = (0..ng)
             .map(|k| self.lines.vector([w[2 * k], w[2 * k + 1]]))
             .collect();
         Ok((gaps, w))
+    }
+
+    /// The measured values of the integer unknowns: `measured` gaps in lattice coordinates,
+    /// then the line values.
+    fn target(&self, measured: &[[f64; 2]]) -> Vec<f64> {
+        measured
+            .iter()
+            .flat_map(|&g| self.lines.coords(g))
+            .chain(self.measured_c.iter().copied())
+            .collect()
+    }
+
+    /// With N = 6: the rounded unknowns `w` with the guards they break mended ([`off_lines`]);
+    /// `None` when they break none, none could be mended, or the guards are mended in every
+    /// rounding already (quads). `measured`: the local step's gaps.
+    pub fn off_lines_try(&self, w: &[f64], measured: &[[f64; 2]]) -> Option<Vec<f64>> {
+        if self.mend_in_round {
+            return None;
+        }
+        let mut mended = w.to_vec();
+        self.keep_off_lines(&mut mended, &self.target(measured));
+        (mended != w).then_some(mended)
     }
 
     /// The reduced basis of the integer solutions of `rows` (those of [`Traced::involved`]),

@@ -40,6 +40,18 @@ pub(super) struct Guard {
     form: Form,
     /// The sign F has on the branch point's side of the line.
     side: f64,
+    breaks: Breaks,
+}
+
+/// What breaks a guard.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Breaks {
+    /// The branch point on the line or across it (quads).
+    Across,
+    /// The branch point on the line only (N = 6: with three line families, a branch point
+    /// rounded across a line beside it is often one the field turns around there, and mending
+    /// those folded a T-shaped prism at 20 000 vertices, docs/untangling.md).
+    OnLine,
 }
 
 /// A geometric piece's line where it constrains a face on its left: the normal n in the face's
@@ -69,6 +81,7 @@ pub(super) fn guards(
     lines_at: &[LineAt],
     ends: &[Vec<usize>],
     measured: &[f64],
+    breaks: Breaks,
 ) -> Vec<Guard> {
     let mut at_face: HashMap<usize, Vec<&LineAt>> = HashMap::new();
     for l in lines_at {
@@ -184,7 +197,7 @@ pub(super) fn guards(
                         {
                             continue;
                         }
-                        out.push(Guard { form, side });
+                        out.push(Guard { form, side, breaks });
                     }
                 }
             }
@@ -207,9 +220,14 @@ fn nearest_on_segment(p: DVec3, a: DVec3, b: DVec3) -> (f64, Option<u8>) {
 }
 
 impl Guard {
-    /// Whether `w` breaks the guard: the branch point on the line beside it, or across it.
+    /// Whether `w` breaks the guard: the branch point on the line beside it (or across it,
+    /// [`Breaks::Across`]).
     fn broken_by(&self, w: &[f64]) -> bool {
-        self.side * eval(&self.form, w) <= 1e-9
+        let f = self.side * eval(&self.form, w);
+        match self.breaks {
+            Breaks::Across => f <= 1e-9,
+            Breaks::OnLine => f.abs() <= 1e-9,
+        }
     }
 }
 
