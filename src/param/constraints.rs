@@ -298,9 +298,9 @@ pub(crate) struct Traced {
     kernel: std::sync::OnceLock<Result<Vec<Vec<i128>>, String>>,
     /// Branch points beside geometric lines they are not on ([`off_lines`]).
     guards: Vec<off_lines::Guard>,
-    /// Whether [`Traced::round`] mends the guards (quads), or only [`Traced::off_lines_try`]
-    /// does, on request (N = 6).
-    mend_in_round: bool,
+    /// What breaks a guard: a branch point across or on the line, mended in [`Traced::round`]
+    /// (quads), or on the line only, mended on request by [`Traced::off_lines_try`] (N = 6).
+    breaks: off_lines::Breaks,
 }
 
 /// Whether the vertex at position `i` of a piece is the tip of an ear: it and its two
@@ -408,7 +408,11 @@ impl Traced {
             ears: Vec::new(),
             kernel: std::sync::OnceLock::new(),
             guards: Vec::new(),
-            mend_in_round: false,
+            breaks: if lattice == Lattice::G6 {
+                off_lines::Breaks::OnLine
+            } else {
+                off_lines::Breaks::Across
+            },
         };
         // The guards keeping branch points off the lines beside them ([`off_lines`]): for
         // quads mended in every rounding; with N = 6 (three line families) only in a second
@@ -418,7 +422,6 @@ impl Traced {
         // vertices 0 → 13, docs/untangling.md). Stripes (N = 2) keep their folds for other
         // reasons.
         let guarded = families.is_field();
-        out.mend_in_round = guarded && lattice != Lattice::G6;
         let mut lines_at: Vec<off_lines::LineAt> = Vec::new();
         // Per curve: forms at its emissions.
         let mut fixed_rows: Vec<(Form, usize)> = Vec::new();
@@ -571,11 +574,6 @@ impl Traced {
                 &lines_at,
                 &ends,
                 &measured,
-                if out.mend_in_round {
-                    off_lines::Breaks::Across
-                } else {
-                    off_lines::Breaks::OnLine
-                },
             )
         };
         // Integer equations: fixed values on lines, and lines of one family meeting.
@@ -674,7 +672,7 @@ impl Traced {
                 w[k] = sol[i] as f64;
             }
         }
-        if self.mend_in_round {
+        if self.breaks == off_lines::Breaks::Across {
             self.keep_off_lines(&mut w, &target);
         }
         let gaps = (0..ng)
@@ -697,7 +695,7 @@ impl Traced {
     /// `None` when they break none, none could be mended, or the guards are mended in every
     /// rounding already (quads). `measured`: the local step's gaps.
     pub fn off_lines_try(&self, w: &[f64], measured: &[[f64; 2]]) -> Option<Vec<f64>> {
-        if self.mend_in_round {
+        if self.breaks == off_lines::Breaks::Across {
             return None;
         }
         let mut mended = w.to_vec();

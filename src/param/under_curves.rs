@@ -158,7 +158,7 @@ impl QuadCover {
             && !cancel()
         {
             let t = Instant::now();
-            let next = self.curves_repaired(
+            let next = match self.curves_repaired(
                 mesh,
                 &local,
                 &traced,
@@ -168,7 +168,12 @@ impl QuadCover {
                 t,
                 cancel,
                 &no_preview,
-            )?;
+            ) {
+                Ok(next) => Some(next),
+                Err(ParamError::Cancelled) => return Err(ParamError::Cancelled),
+                // A try that fails leaves the first map.
+                Err(_) => None,
+            };
             let badness = |c: &CurveMap| {
                 (
                     untangle::folded(&c.uv).len(),
@@ -178,7 +183,9 @@ impl QuadCover {
             // The first map's repair and the try's whole time (its global step included):
             // it is there for the repair.
             let repair_ms = kept.repair.ms + ms(t);
-            if badness(&next) < badness(&kept) {
+            if let Some(next) = next
+                && badness(&next) < badness(&kept)
+            {
                 // Its gaps moved from the first rounding's: re-rounded, as the repair's
                 // re-roundings report theirs.
                 let rerounded =

@@ -15,6 +15,12 @@
 //! sign the side has. After the rounding, broken guards are mended one lattice step of one
 //! unknown at a time (the others re-solved to keep C_c w = 0, [`Traced::stepped`]), choosing the
 //! step that leaves the fewest broken and, among those, stays nearest the measured values.
+//!
+//! For quads every rounding is mended so ([`Breaks::Across`]). With N = 6 the rounding is left
+//! as it is, and only a map that still folds after the repair is made again from the rounding
+//! with the guards mended that have the branch point on the line itself ([`Breaks::OnLine`],
+//! [`Traced::off_lines_try`]): mended in every rounding, they folded prisms that were fold-free
+//! without them (a T-shaped prism at 20 000 vertices, 0 → 11 folded faces).
 
 use std::collections::{HashMap, HashSet, VecDeque};
 
@@ -40,7 +46,6 @@ pub(super) struct Guard {
     form: Form,
     /// The sign F has on the branch point's side of the line.
     side: f64,
-    breaks: Breaks,
 }
 
 /// What breaks a guard.
@@ -48,9 +53,9 @@ pub(super) struct Guard {
 pub(super) enum Breaks {
     /// The branch point on the line or across it (quads).
     Across,
-    /// The branch point on the line only (N = 6: with three line families, a branch point
-    /// rounded across a line beside it is often one the field turns around there, and mending
-    /// those folded a T-shaped prism at 20 000 vertices, docs/untangling.md).
+    /// The branch point on the line only (N = 6: mending crossings as well left the cross
+    /// plate more folded, 117 → 132 folded faces, where mending these alone unfolds it;
+    /// docs/untangling.md).
     OnLine,
 }
 
@@ -81,7 +86,6 @@ pub(super) fn guards(
     lines_at: &[LineAt],
     ends: &[Vec<usize>],
     measured: &[f64],
-    breaks: Breaks,
 ) -> Vec<Guard> {
     let mut at_face: HashMap<usize, Vec<&LineAt>> = HashMap::new();
     for l in lines_at {
@@ -197,7 +201,7 @@ pub(super) fn guards(
                         {
                             continue;
                         }
-                        out.push(Guard { form, side, breaks });
+                        out.push(Guard { form, side });
                     }
                 }
             }
@@ -222,9 +226,9 @@ fn nearest_on_segment(p: DVec3, a: DVec3, b: DVec3) -> (f64, Option<u8>) {
 impl Guard {
     /// Whether `w` breaks the guard: the branch point on the line beside it (or across it,
     /// [`Breaks::Across`]).
-    fn broken_by(&self, w: &[f64]) -> bool {
+    fn broken_by(&self, w: &[f64], breaks: Breaks) -> bool {
         let f = self.side * eval(&self.form, w);
-        match self.breaks {
+        match breaks {
             Breaks::Across => f <= 1e-9,
             Breaks::OnLine => f.abs() <= 1e-9,
         }
@@ -234,7 +238,10 @@ impl Guard {
 impl Traced {
     /// The guards `w` breaks.
     fn broken(&self, w: &[f64]) -> usize {
-        self.guards.iter().filter(|g| g.broken_by(w)).count()
+        self.guards
+            .iter()
+            .filter(|g| g.broken_by(w, self.breaks))
+            .count()
     }
 
     /// Mends the guards the rounded unknowns `w` break (see the module's comment); `target`:
@@ -248,7 +255,7 @@ impl Traced {
             let dist =
                 |x: &[f64]| -> f64 { x.iter().zip(target).map(|(a, b)| (a - b) * (a - b)).sum() };
             let mut best: Option<(usize, f64, Vec<f64>)> = None;
-            for g in self.guards.iter().filter(|g| g.broken_by(w)) {
+            for g in self.guards.iter().filter(|g| g.broken_by(w, self.breaks)) {
                 for (&k, &a) in &g.form {
                     if (a * DENOMINATOR).round() == 0.0 {
                         continue;
