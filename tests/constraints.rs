@@ -815,6 +815,26 @@ fn raw_extruded(polygon: &[(f64, f64)], cap: &[[u32; 3]], height: f64) -> TriMes
     TriMesh::from_triangles(positions, faces).unwrap()
 }
 
+/// `mesh` solved with features at 40°, and its singularities on curve lines beside them
+/// (within 3 cells, [`singularities_on_curve_lines`]).
+fn with_features_at_40(
+    mesh: std::sync::Arc<TriMesh>,
+    settings: Settings,
+) -> (Base, EditState, Solved, Vec<usize>) {
+    let base = Base::for_mesh(mesh, settings).unwrap();
+    let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
+    let on_lines = singularities_on_curve_lines(&base, &state, &solved.param, 3.0);
+    (base, state, solved, on_lines)
+}
+
+/// A mesh of `tests/data`.
+fn test_data(name: &str) -> TriMesh {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name);
+    quadcover::load::load_mesh(&path).unwrap().mesh
+}
+
 /// A raw tessellation remeshed as `solve` remeshes one by itself (`mesh::isotropic`).
 fn remeshed_as_solve_does(raw: &TriMesh) -> std::sync::Arc<TriMesh> {
     use quadcover::mesh::isotropic::{PREPARED_FEATURE_ANGLE, isotropic_remesh, prepared_options};
@@ -2052,17 +2072,13 @@ fn singularities_on_curve_lines(
 /// lines beside them now (`param::constraints::off_lines`).
 #[test]
 fn singularities_beside_a_rim_keep_off_its_line() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bracket.obj");
-    let raw = quadcover::load::load_mesh(&path).unwrap().mesh;
-    let mesh = remeshed_as_solve_does(&raw);
+    let mesh = remeshed_as_solve_does(&test_data("bracket.obj"));
     let settings = Settings {
         target_vertices: Some(3000),
         ..Settings::default()
     };
-    let base = Base::for_mesh(mesh, settings).unwrap();
-    let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
+    let (base, state, solved, on_lines) = with_features_at_40(mesh, settings);
     let p = &solved.param;
-    let on_lines = singularities_on_curve_lines(&base, &state, p, 3.0);
     eprintln!(
         "bracket at 3000 vertices: {} singularities, {} on curve lines beside them, {} mis-wound, {} folds",
         p.singularities.len(),
@@ -2089,8 +2105,7 @@ fn singularities_beside_a_rim_keep_off_its_line() {
 #[test]
 fn a_six_fold_map_that_folds_is_tried_with_branch_points_off_the_lines() {
     use quadcover::mesh::isotropic::{IsotropicOptions, isotropic_remesh};
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/cross_plate.obj");
-    let raw = quadcover::load::load_mesh(&path).unwrap().mesh;
+    let raw = test_data("cross_plate.obj");
     let opts = IsotropicOptions::for_vertices(&raw, 10_000, 35.0);
     let mesh = std::sync::Arc::new(isotropic_remesh(&raw, &opts).unwrap());
     let settings = Settings {
@@ -2098,10 +2113,8 @@ fn a_six_fold_map_that_folds_is_tried_with_branch_points_off_the_lines() {
         target_vertices: Some(3000),
         ..Settings::default()
     };
-    let base = Base::for_mesh(mesh, settings).unwrap();
-    let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
+    let (base, state, solved, on_lines) = with_features_at_40(mesh, settings);
     let p = &solved.param;
-    let on_lines = singularities_on_curve_lines(&base, &state, p, 3.0);
     eprintln!(
         "cross plate, N = 6: {} singularities, {} on curve lines beside them, {} mis-wound, {} folds before the repair, {} after, {} gaps re-rounded",
         p.singularities.len(),

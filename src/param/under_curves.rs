@@ -134,17 +134,20 @@ impl QuadCover {
         let w = rounded?;
         let step = step.map_err(|e| traced.name_failure(e))?;
         let cones = cones(mesh, &singularities);
-        let first = self.curves_repaired(
-            mesh,
-            &local,
-            &traced,
-            step.as_ref(),
-            &cones,
-            w,
-            t,
-            cancel,
-            preview,
-        )?;
+        let repaired = |w: Vec<f64>, t: Instant, preview: PreviewSink<'_>| {
+            self.curves_repaired(
+                mesh,
+                &local,
+                &traced,
+                step.as_ref(),
+                &cones,
+                w,
+                t,
+                cancel,
+                preview,
+            )
+        };
+        let first = repaired(w, t, preview)?;
         // N = 6: a map that keeps folds is tried again with the branch points rounded onto
         // lines beside them moved off ([`constraints::Traced::off_lines_try`]); the one with
         // fewer folds, then fewer wrongly wound vertices, is kept.
@@ -158,17 +161,7 @@ impl QuadCover {
             && !cancel()
         {
             let t = Instant::now();
-            let next = match self.curves_repaired(
-                mesh,
-                &local,
-                &traced,
-                step.as_ref(),
-                &cones,
-                w,
-                t,
-                cancel,
-                &no_preview,
-            ) {
+            let next = match repaired(w, t, &no_preview) {
                 Ok(next) => Some(next),
                 Err(ParamError::Cancelled) => return Err(ParamError::Cancelled),
                 // A try that fails leaves the first map.
