@@ -34,6 +34,7 @@ use super::rot::{Aff, Lattice, Lin, Rots, apply, transpose};
 use crate::mesh::TriMesh;
 
 mod off_lines;
+pub(crate) use off_lines::Breaks;
 
 /// A constraint curve as QuadCover takes it: mesh vertices (consecutive ones sharing an edge,
 /// the first not repeated when `closed`).
@@ -298,9 +299,9 @@ pub(crate) struct Traced {
     kernel: std::sync::OnceLock<Result<Vec<Vec<i128>>, String>>,
     /// Branch points beside geometric lines they are not on ([`off_lines`]).
     guards: Vec<off_lines::Guard>,
-    /// What breaks a guard: a branch point across or on the line, mended in [`Traced::round`]
-    /// (quads), or on the line only, mended on request by [`Traced::off_lines_try`] (N = 6).
-    breaks: off_lines::Breaks,
+    /// Whether [`Traced::round`] mends the guards (quads, [`Breaks::Across`]); with N = 6 only
+    /// [`Traced::off_lines_try`] does, on request.
+    mend_in_round: bool,
 }
 
 /// Whether the vertex at position `i` of a piece is the tip of an ear: it and its two
@@ -408,11 +409,7 @@ impl Traced {
             ears: Vec::new(),
             kernel: std::sync::OnceLock::new(),
             guards: Vec::new(),
-            breaks: if lattice == Lattice::G6 {
-                off_lines::Breaks::OnLine
-            } else {
-                off_lines::Breaks::Across
-            },
+            mend_in_round: lattice != Lattice::G6,
         };
         // The guards keeping branch points off the lines beside them ([`off_lines`]): for
         // quads mended in every rounding; with N = 6 (three line families) only in a second
@@ -672,8 +669,8 @@ impl Traced {
                 w[k] = sol[i] as f64;
             }
         }
-        if self.breaks == off_lines::Breaks::Across {
-            self.keep_off_lines(&mut w, &target);
+        if self.mend_in_round {
+            self.keep_off_lines(&mut w, &target, Breaks::Across);
         }
         let gaps = (0..ng)
             .map(|k| self.lines.vector([w[2 * k], w[2 * k + 1]]))
@@ -691,15 +688,20 @@ impl Traced {
             .collect()
     }
 
-    /// With N = 6: the rounded unknowns `w` with the guards they break mended ([`off_lines`]);
-    /// `None` when they break none, none could be mended, or the guards are mended in every
-    /// rounding already (quads). `measured`: the local step's gaps.
-    pub fn off_lines_try(&self, w: &[f64], measured: &[[f64; 2]]) -> Option<Vec<f64>> {
-        if self.breaks == off_lines::Breaks::Across {
+    /// With N = 6: the rounded unknowns `w` with the guards `breaks` breaks mended
+    /// ([`off_lines`]); `None` when it breaks none, none could be mended, or the guards are
+    /// mended in every rounding already (quads). `measured`: the local step's gaps.
+    pub fn off_lines_try(
+        &self,
+        w: &[f64],
+        measured: &[[f64; 2]],
+        breaks: Breaks,
+    ) -> Option<Vec<f64>> {
+        if self.mend_in_round {
             return None;
         }
         let mut mended = w.to_vec();
-        self.keep_off_lines(&mut mended, &self.target(measured));
+        self.keep_off_lines(&mut mended, &self.target(measured), breaks);
         (mended != w).then_some(mended)
     }
 

@@ -18,9 +18,11 @@
 //!
 //! For quads every rounding is mended so ([`Breaks::Across`]). With N = 6 the rounding is left
 //! as it is, and only a map that still folds after the repair is made again from the rounding
-//! with the guards mended that have the branch point on the line itself ([`Breaks::OnLine`],
-//! [`Traced::off_lines_try`]): mended in every rounding, they folded prisms that were fold-free
-//! without them (a T-shaped prism at 20 000 vertices, 0 → 11 folded faces).
+//! with the guards mended, first those that have the branch point on the line itself
+//! ([`Breaks::OnLine`]), then, if that map folds too, those with it across the line as well
+//! ([`Traced::off_lines_try`]): mended in every rounding, they folded prisms that were
+//! fold-free without them (a T-shaped prism at 20 000 vertices, 0 → 11 folded faces with the
+//! first, 0 → 13 with the second).
 
 use std::collections::{HashMap, HashSet, VecDeque};
 
@@ -50,12 +52,11 @@ pub(super) struct Guard {
 
 /// What breaks a guard.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Breaks {
+pub(crate) enum Breaks {
     /// The branch point on the line or across it (quads).
     Across,
-    /// The branch point on the line only (N = 6: mending crossings as well left the cross
-    /// plate more folded, 117 → 132 folded faces, where mending these alone unfolds it;
-    /// docs/untangling.md).
+    /// The branch point on the line only (N = 6's first try: the cross plate's folds go
+    /// 117 → 0 with it, none with crossings mended as well; docs/untangling.md).
     OnLine,
 }
 
@@ -237,17 +238,17 @@ impl Guard {
 
 impl Traced {
     /// The guards `w` breaks.
-    fn broken(&self, w: &[f64]) -> usize {
+    fn broken(&self, w: &[f64], breaks: Breaks) -> usize {
         self.guards
             .iter()
-            .filter(|g| g.broken_by(w, self.breaks))
+            .filter(|g| g.broken_by(w, breaks))
             .count()
     }
 
     /// Mends the guards the rounded unknowns `w` break (see the module's comment); `target`:
     /// the measured values in the same coordinates.
-    pub(super) fn keep_off_lines(&self, w: &mut Vec<f64>, target: &[f64]) {
-        let mut broken = self.broken(w);
+    pub(super) fn keep_off_lines(&self, w: &mut Vec<f64>, target: &[f64], breaks: Breaks) {
+        let mut broken = self.broken(w, breaks);
         for _ in 0..STEPS_PER_GUARD * broken {
             if broken == 0 {
                 return;
@@ -255,7 +256,7 @@ impl Traced {
             let dist =
                 |x: &[f64]| -> f64 { x.iter().zip(target).map(|(a, b)| (a - b) * (a - b)).sum() };
             let mut best: Option<(usize, f64, Vec<f64>)> = None;
-            for g in self.guards.iter().filter(|g| g.broken_by(w, self.breaks)) {
+            for g in self.guards.iter().filter(|g| g.broken_by(w, breaks)) {
                 for (&k, &a) in &g.form {
                     if (a * DENOMINATOR).round() == 0.0 {
                         continue;
@@ -263,7 +264,7 @@ impl Traced {
                     let Some(next) = self.stepped(w, k, (g.side * a).signum()) else {
                         continue;
                     };
-                    let score = (self.broken(&next), dist(&next));
+                    let score = (self.broken(&next, breaks), dist(&next));
                     if best
                         .as_ref()
                         .is_none_or(|b| (score.0, score.1) < (b.0, b.1))
