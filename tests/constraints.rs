@@ -816,14 +816,25 @@ fn raw_extruded(polygon: &[(f64, f64)], cap: &[[u32; 3]], height: f64) -> TriMes
 }
 
 /// `mesh` solved with features at 40°, and its singularities on curve lines beside them
-/// (within 3 cells, [`singularities_on_curve_lines`]).
+/// (within 3 cells, [`singularities_on_curve_lines`]); the counts printed under `what`.
 fn with_features_at_40(
     mesh: std::sync::Arc<TriMesh>,
     settings: Settings,
+    what: &str,
 ) -> (Base, EditState, Solved, Vec<usize>) {
     let base = Base::for_mesh(mesh, settings).unwrap();
     let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
-    let on_lines = singularities_on_curve_lines(&base, &state, &solved.param, 3.0);
+    let p = &solved.param;
+    let on_lines = singularities_on_curve_lines(&base, &state, p, 3.0);
+    eprintln!(
+        "{what}: {} singularities, {} on curve lines beside them, {} mis-wound, {} folds before the repair, {} after, {} gaps re-rounded",
+        p.singularities.len(),
+        on_lines.len(),
+        p.miswound.len(),
+        p.flipped_faces_before_repair,
+        p.flipped_faces,
+        p.rerounded_gaps.len()
+    );
     (base, state, solved, on_lines)
 }
 
@@ -2077,15 +2088,9 @@ fn singularities_beside_a_rim_keep_off_its_line() {
         target_vertices: Some(3000),
         ..Settings::default()
     };
-    let (base, state, solved, on_lines) = with_features_at_40(mesh, settings);
+    let (base, state, solved, on_lines) =
+        with_features_at_40(mesh, settings, "bracket at 3000 vertices");
     let p = &solved.param;
-    eprintln!(
-        "bracket at 3000 vertices: {} singularities, {} on curve lines beside them, {} mis-wound, {} folds",
-        p.singularities.len(),
-        on_lines.len(),
-        p.miswound.len(),
-        p.flipped_faces
-    );
     check_geometric(&base, &state, &solved);
     assert!(on_lines.is_empty(), "on curve lines: {on_lines:?}");
     assert_eq!(p.flipped_faces, 0);
@@ -2117,17 +2122,8 @@ fn a_six_fold_map_that_folds_is_tried_with_branch_points_off_the_lines() {
             target_vertices: Some(target),
             ..Settings::default()
         };
-        let (base, state, solved, on_lines) = with_features_at_40(mesh, settings);
+        let (base, state, solved, _) = with_features_at_40(mesh, settings, &what);
         let p = &solved.param;
-        eprintln!(
-            "{what}: {} singularities, {} on curve lines beside them, {} mis-wound, {} folds before the repair, {} after, {} gaps re-rounded",
-            p.singularities.len(),
-            on_lines.len(),
-            p.miswound.len(),
-            p.flipped_faces_before_repair,
-            p.flipped_faces,
-            p.rerounded_gaps.len()
-        );
         check_geometric(&base, &state, &solved);
         assert_eq!(p.flipped_faces, 0, "{what}");
         let (remesh, share, _) = remesh_along_curves(&base, &state, &solved, &what);

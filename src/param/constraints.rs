@@ -412,12 +412,11 @@ impl Traced {
             mend_in_round: lattice != Lattice::G6,
         };
         // The guards keeping branch points off the lines beside them ([`off_lines`]): for
-        // quads mended in every rounding; with N = 6 (three line families) only in a second
-        // try when the first map keeps folds, and broken only with the branch point on the
-        // line, not across it: mended in every rounding they took folds away on some CAD parts
-        // and added them on others (the cross plate 117 → 132, a T-shaped prism at 20 000
-        // vertices 0 → 13, docs/untangling.md). Stripes (N = 2) keep their folds for other
-        // reasons.
+        // quads mended in every rounding; with N = 6 (three line families) only in the tries
+        // a map that keeps folds is given (`QuadCover::solve_curves`): mended in every
+        // rounding they took folds away on some CAD parts and added them on others (the cross
+        // plate 117 → 132, a T-shaped prism at 20 000 vertices 0 → 13, docs/untangling.md).
+        // Stripes (N = 2) keep their folds for other reasons.
         let guarded = families.is_field();
         let mut lines_at: Vec<off_lines::LineAt> = Vec::new();
         // Per curve: forms at its emissions.
@@ -550,7 +549,7 @@ impl Traced {
                     }
                 }
             }
-            let measured: Vec<f64> = w_measured.iter().chain(&out.measured_c).copied().collect();
+            let measured = out.target(measured_gaps);
             let ends: Vec<Vec<usize>> = pieces
                 .iter()
                 .map(
