@@ -279,6 +279,50 @@ fn fandisk_features_at_other_angles() {
     }
 }
 
+/// Coarser grids: fandisk's 19° corner between two creases keeps its singularity at the apex
+/// when the +1/4 one edge along a crease from it is within the cancellation radius (a grid
+/// cell), as it is at 2000 and 3000 target vertices. Cancelled, the corner had no singularity
+/// and the map kept 6 and 5 folded faces beside it.
+#[test]
+fn fandisk_acute_apex_keeps_its_singularity_on_coarse_grids() {
+    let Some(path) = shared("fandisk.obj") else {
+        return;
+    };
+    for target in [2000, 3000] {
+        let settings = Settings {
+            target_vertices: Some(target),
+            ..Settings::default()
+        };
+        let base = base_for(&path, settings);
+        let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
+        check_geometric(&base, &state, &solved);
+        let apexes = quadcover::constraint::acute_corners(
+            base.mesh(),
+            state.curves.values(),
+            4,
+            base.grid_size(),
+        )
+        .apexes;
+        eprintln!(
+            "fandisk at {target} target vertices, features at 40°: apexes {apexes:?}, {} singularities, {} flipped faces",
+            solved.param.singularities.len(),
+            solved.param.flipped_faces
+        );
+        assert!(!apexes.is_empty(), "fandisk has an acute corner at 40°");
+        for a in &apexes {
+            assert!(
+                solved.param.singularities.iter().any(|s| s.vertex == *a),
+                "{target}: apex {a} is no singularity"
+            );
+        }
+        assert_eq!(
+            solved.param.flipped_faces, 0,
+            "{target}: {} folded faces",
+            solved.param.flipped_faces
+        );
+    }
+}
+
 /// A shared mesh solved with its boundary aligned (default settings but `n`), or None without
 /// the shared meshes.
 fn aligned(name: &str, n: u32) -> Option<(Base, EditState, Solved)> {

@@ -28,7 +28,8 @@ const ROUNDS: usize = 5;
 /// cancelled pairwise, nearest pairs first, and the faces around the changed edges (whose
 /// alignment must give way so the field can turn smoothly there); `None` when there is no such
 /// pair or nothing could be cancelled. `defects` are the mesh's angle defects
-/// ([`TriMesh::angle_defects`], computed once per field by the caller).
+/// ([`TriMesh::angle_defects`], computed once per field by the caller). Singularities at the
+/// vertices of `kept` (sorted) take part in no pair.
 ///
 /// Indices are those of the unreduced turns ([`turn_index_k_at`]), which the fixed-matching
 /// solve realizes, not the angle-based ones: those wrap each residual angle to (−π, π], so they
@@ -44,6 +45,7 @@ pub(crate) fn cancel_close_pairs(
     turns: &[i64],
     n: u32,
     radius: f64,
+    kept: &[usize],
 ) -> Option<(Vec<i64>, Vec<usize>)> {
     if radius <= 0.0 {
         return None;
@@ -62,7 +64,7 @@ pub(crate) fn cancel_close_pairs(
     let mut search = PathSearch::new(mesh.n_vertices());
     let index_at = |r: &[i64], v: usize| turn_index_k_at(mesh, tr, defects[v], v, n, |e| r[e]);
     for _ in 0..ROUNDS {
-        let pairs = close_pairs(mesh, &singular, radius, n as i32);
+        let pairs = close_pairs(mesh, &singular, radius, n as i32, kept);
         let mut changed = false;
         for (a, b, ka, kb) in pairs {
             let Some(path) = search.shortest_interior_path(mesh, a, b, 3.0 * radius) else {
@@ -104,15 +106,18 @@ pub(crate) fn cancel_close_pairs(
 /// first, b to be moved onto a: k_a + k_b = 0 (the pair vanishes), or |k_b| < |k_a| < N (b
 /// vanishes into a, whose index shrinks: a −2/6 between two +1/6 one ring apart, as the field
 /// of max-planck rounds for N = 6, cancels in two rounds instead of folding the map between
-/// them). Integral indices (poles, ±N/N) only cancel with their exact opposite.
+/// them). Integral indices (poles, ±N/N) only cancel with their exact opposite. Those at the
+/// vertices of `kept` (sorted) are left out.
 fn close_pairs(
     mesh: &TriMesh,
     singular: &BTreeMap<usize, i32>,
     radius: f64,
     n: i32,
+    kept: &[usize],
 ) -> Vec<(usize, usize, i32, i32)> {
     let s: Vec<Singularity> = singular
         .iter()
+        .filter(|&(v, _)| kept.binary_search(v).is_err())
         .map(|(&vertex, &k)| Singularity { vertex, k })
         .collect();
     let mut candidates = Vec::new();
@@ -324,6 +329,7 @@ mod tests {
                             &turns,
                             n,
                             4.0 * h,
+                            &[],
                         ) else {
                             failures.push(format!("{label}: nothing cancelled"));
                             continue;
@@ -381,7 +387,7 @@ mod tests {
         make(&mut turns, far[0], far[1], -1);
         assert_eq!(singular(&mesh, &tr, &turns, n).len(), 8);
         let (r, _) =
-            cancel_close_pairs(&mesh, &tr, &mesh.angle_defects(), &turns, n, 4.0 * h).unwrap();
+            cancel_close_pairs(&mesh, &tr, &mesh.angle_defects(), &turns, n, 4.0 * h, &[]).unwrap();
         let mut left = singular(&mesh, &tr, &r, n);
         left.sort_unstable();
         let mut expected = vec![(far[0], -1), (far[1], 1)];
@@ -417,8 +423,9 @@ mod tests {
             assert_eq!(made.len(), 3, "N = {n}: {made:?}");
             assert_eq!(made.iter().sum::<i32>(), 0, "N = {n}: {made:?}");
             assert_eq!(made.iter().map(|k| k.abs()).max(), Some(2), "N = {n}");
-            let (r, _) = cancel_close_pairs(&mesh, &tr, &mesh.angle_defects(), &turns, n, 3.0 * h)
-                .unwrap_or_else(|| panic!("N = {n}: nothing cancelled"));
+            let (r, _) =
+                cancel_close_pairs(&mesh, &tr, &mesh.angle_defects(), &turns, n, 3.0 * h, &[])
+                    .unwrap_or_else(|| panic!("N = {n}: nothing cancelled"));
             assert_eq!(singular(&mesh, &tr, &r, n), [], "N = {n}");
             // A pole beside a single index of the other sign (their partners far away):
             // nothing to cancel.
@@ -445,7 +452,8 @@ mod tests {
                 .expect("a pole and a single index of opposite signs");
             assert_eq!(singular(&mesh, &tr, &turns, n).len(), 4, "N = {n}");
             assert!(
-                cancel_close_pairs(&mesh, &tr, &mesh.angle_defects(), &turns, n, 3.0 * h).is_none(),
+                cancel_close_pairs(&mesh, &tr, &mesh.angle_defects(), &turns, n, 3.0 * h, &[])
+                    .is_none(),
                 "N = {n}: a pole merged with a single index"
             );
         }
@@ -492,8 +500,9 @@ mod tests {
                 .collect();
             assert_eq!(made, expected, "N = {n}");
             assert_eq!(singular(&mesh, &tr, &turns, n), expected, "N = {n}");
-            let (r, _) = cancel_close_pairs(&mesh, &tr, &mesh.angle_defects(), &turns, n, 2.0 * h)
-                .unwrap_or_else(|| panic!("N = {n}: nothing cancelled"));
+            let (r, _) =
+                cancel_close_pairs(&mesh, &tr, &mesh.angle_defects(), &turns, n, 2.0 * h, &[])
+                    .unwrap_or_else(|| panic!("N = {n}: nothing cancelled"));
             assert_eq!(singular(&mesh, &tr, &r, n), [], "N = {n}");
         }
     }

@@ -227,6 +227,14 @@ pub struct FieldParams {
     /// ([`crease_reach`]).
     #[serde(skip)]
     pub rim_aligned: Option<std::sync::Arc<Vec<u32>>>,
+    /// Vertices (sorted) whose singularities the pair cancellation leaves: the apexes of acute
+    /// corners between geometric curves (`constraint::acute_corners`), whose wedge the design
+    /// holds to a lattice corner, so that the apex carries the index the corner asks for. Its
+    /// partner one edge along a crease is within a cell at coarse grids: cancelled, the corner
+    /// has no singularity and the map folds beside it (fandisk with features at 40°, 3000
+    /// target vertices: 5 folded faces; 0 with the pair kept, as at the default density).
+    #[serde(skip)]
+    pub kept_singular: Option<std::sync::Arc<Vec<usize>>>,
     /// Read the curvature guidance from the unsmoothed shape operators (eq. 3.2 as is), the
     /// density from the smoothed ones (`curvature_smoothing`): a design whose hexagonal field
     /// changes line family along a sharp crease is made again so (`edit::families`), since the
@@ -263,6 +271,7 @@ impl Default for FieldParams {
             aligned: None,
             boundary_aligned: None,
             rim_aligned: None,
+            kept_singular: None,
             raw_guidance: false,
         }
     }
@@ -480,9 +489,13 @@ fn field_with_analysis<T: Send>(
     // The angle defects, computed once for the cancellation, the renormalization's question and
     // the singularity pass.
     let defects = std::sync::OnceLock::new();
+    let kept = params
+        .kept_singular
+        .as_deref()
+        .map_or(&[][..], |v| v.as_slice());
     let cancel = |_theta: &[f64], turns: &[i64]| {
         let defects = defects.get_or_init(|| mesh.angle_defects());
-        let near = cancel::cancel_close_pairs(mesh, &tr, defects, turns, n, radius);
+        let near = cancel::cancel_close_pairs(mesh, &tr, defects, turns, n, radius, kept);
         if !lone_torus {
             return near;
         }
@@ -501,7 +514,7 @@ fn field_with_analysis<T: Send>(
         if singular.len() != 2 || singular[0] + singular[1] != 0 {
             return near;
         }
-        match cancel::cancel_close_pairs(mesh, &tr, defects, current, n, f64::INFINITY) {
+        match cancel::cancel_close_pairs(mesh, &tr, defects, current, n, f64::INFINITY, &[]) {
             Some((r, more)) => {
                 let mut released = near.map(|(_, a)| a).unwrap_or_default();
                 released.extend(more);
