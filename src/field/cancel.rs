@@ -393,6 +393,27 @@ mod tests {
         let mut expected = vec![(far[0], -1), (far[1], 1)];
         expected.sort_unstable();
         assert_eq!(left, expected);
+        // A kept vertex (an acute apex under curves) keeps its pair: the other two still go.
+        let kept = id(18, 4);
+        let (r, _) = cancel_close_pairs(
+            &mesh,
+            &tr,
+            &mesh.angle_defects(),
+            &turns,
+            n,
+            4.0 * h,
+            &[kept],
+        )
+        .unwrap();
+        let left: Vec<usize> = singular(&mesh, &tr, &r, n)
+            .into_iter()
+            .map(|(v, _)| v)
+            .collect();
+        assert_eq!(left.len(), 4, "{left:?}");
+        assert!(
+            left.contains(&kept) && left.contains(&id(18, 7)),
+            "{left:?}"
+        );
     }
 
     /// A −2/N between two +1/N (made by moving two +1/N out of one vertex, as the field of
