@@ -323,6 +323,35 @@ fn fandisk_acute_apex_keeps_its_singularity_on_coarse_grids() {
     }
 }
 
+/// Parallel creases under two grid cells apart: a box 4 × 2 × 1 with seven slots 0.2 wide and
+/// 0.6 deep across its top (`tests/data/comb7.obj`, the raw part as trimesh's boolean difference
+/// of boxes writes it: 64 vertices), remeshed as `solve` does, at 1500 target vertices with
+/// features at 40°. On 2Z² every corner of a slot is a singularity on an even lattice point, so
+/// a slot is 0 or at least 2 cells wide; here it measures 1.3, and the rounding put one slot's
+/// walls on one line (265 folded faces after the repair, the slot's floor folded end to end).
+/// The map is solved again on Z² (`Base::on_z2_if_folded`): no fold, and the remesh is all
+/// quads.
+#[test]
+fn narrow_slots_at_a_coarse_grid_are_solved_on_z2() {
+    let mesh = remeshed_as_solve_does(&test_data("comb7.obj"));
+    let settings = Settings {
+        target_vertices: Some(1500),
+        ..Settings::default()
+    };
+    let (base, state, solved, _) = with_features_at_40(mesh, settings, "comb at 1500");
+    check_geometric(&base, &state, &solved);
+    let p = &solved.param;
+    assert_eq!(p.lattice, Lattice::Z2, "the 2Z² map was kept");
+    assert_eq!(p.flipped_faces, 0, "{} folded faces", p.flipped_faces);
+    let (remesh, _, _) = remesh_along_curves(&base, &state, &solved, "comb at 1500");
+    remesh_checks::assert_manifold(&remesh, "comb at 1500");
+    assert!(remesh.faces.iter().all(|f| f.len() == 4), "not all quads");
+    assert_eq!(
+        remesh.euler_characteristic(),
+        base.mesh().euler_characteristic()
+    );
+}
+
 /// A shared mesh solved with its boundary aligned (default settings but `n`), or None without
 /// the shared meshes.
 fn aligned(name: &str, n: u32) -> Option<(Base, EditState, Solved)> {

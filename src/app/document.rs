@@ -1047,13 +1047,16 @@ impl Document {
             FoldRepair::Off => " (untangling off)".to_string(),
             _ => String::new(),
         };
-        let crowded_note = match &p.crowded_refinement {
+        let mut crowded_note = match &p.crowded_refinement {
             Some(c) => format!(
                 "; grid up to {:.1}× finer around {} crowded singularities",
                 c.max_multiplier, c.singularities
             ),
             None => String::new(),
         };
+        if p.symmetry == 4 && p.lattice == crate::param::Lattice::Z2 && self.settings.pure_quad {
+            crowded_note.push_str("; rounded on Z² (on 2Z² the map folded under the curves)");
+        }
         self.param_summary = format!(
             "{} cut paths, {} flipped faces{repair_note}, seam error {:.1e}, conformal distortion {:.3}, curl {:.3}{crowded_note}",
             p.cut_paths.len(),

@@ -199,6 +199,10 @@ struct Report {
     symmetry: usize,
     singularities: Vec<SingularityOut>,
     cut_paths: usize,
+    /// The lattice the gaps were rounded on: `TwoZ2` (quads' default, singularities on grid
+    /// points), `Z2` (`--no-pure-quad`, or a map on 2Z² that kept folds under curves and was
+    /// solved again), `G6` (hexagons).
+    lattice: param::Lattice,
     flipped_faces: usize,
     /// Folded faces the global step left, before the injectivity repair.
     flipped_faces_before_repair: usize,
@@ -814,6 +818,14 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             c.max_multiplier, c.singularities, c.faces
         ));
     }
+    if settings.param_options().pure_quad && p.lattice == param::Lattice::Z2 {
+        bar.line(
+            "  rounded on Z² (as --no-pure-quad): on 2Z² the map kept folds under the curves \
+             (creases closer than two grid cells, corners a cell apart); singularities between \
+             grid points give the remesh more irregular vertices"
+                .to_string(),
+        );
+    }
     if p.flipped_faces > 0 && !settings.no_untangle {
         bar.line(format!(
             "  warning: {}",
@@ -860,6 +872,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 })
                 .collect(),
             cut_paths: p.cut_paths.len(),
+            lattice: p.lattice,
             flipped_faces: p.flipped_faces,
             flipped_faces_before_repair: p.flipped_faces_before_repair,
             repair_ms: p.timings.repair_ms,

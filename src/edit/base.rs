@@ -1226,6 +1226,68 @@ impl Base {
             .map_err(|e| EditError::Param(e.to_string()))
     }
 
+    /// Quads under geometric curves: a map on 2Z² (`pure_quad`) that keeps folds after its
+    /// repair is solved again on Z², and the map with fewer folded faces, then wrongly wound
+    /// vertices, kept. On 2Z² every corner where curves meet is a singularity on an even
+    /// lattice point, so parallel creases between corners are 0 or at least 2 cells apart:
+    /// where they are closer in space than about two cells (a comb's slots, a gear's teeth at
+    /// coarse grids) the rounding puts some on one line and the faces between them fold (a
+    /// comb with 7 slots at 1500 target vertices: 265 folded faces; on Z² none). The remesh of
+    /// a Z² map is all quads all the same (its singularities between grid points are purified),
+    /// with more irregular vertices. A fresh solver, without the edit model's factor reuse: it
+    /// is made only for maps that fold.
+    fn on_z2_if_folded(
+        &self,
+        state: &EditState,
+        matchings: &[i32],
+        frames: &[[glam::DVec3; 2]],
+        param: Parameterization,
+        cancel: Cancel,
+    ) -> Result<Parameterization, EditError> {
+        let opts = self.settings.param_options();
+        let geometric = state
+            .curves
+            .values()
+            .any(|c| c.kind == crate::constraint::CurveKind::Geometric);
+        if !opts.pure_quad || opts.no_untangle || param.flipped_faces == 0 || !geometric {
+            return Ok(param);
+        }
+        let z2 = crate::param::ParamOptions {
+            pure_quad: false,
+            ..opts
+        };
+        let tried = QuadCover::with_analysis(
+            &self.mesh,
+            self.settings.symmetry as usize,
+            matchings,
+            z2,
+            Some(&self.analysis),
+        )
+        .and_then(|qc| {
+            qc.solve_speculating(
+                &self.mesh,
+                frames,
+                &self.constraint_curves(state),
+                cancel,
+                &crate::param::no_preview,
+                false,
+            )
+        });
+        match tried {
+            Ok(mut other)
+                if (other.flipped_faces, other.miswound.len())
+                    < (param.flipped_faces, param.miswound.len()) =>
+            {
+                // The first map's repair is part of what the kept one cost.
+                other.timings.repair_ms += param.timings.repair_ms;
+                Ok(other)
+            }
+            Err(ParamError::Cancelled) => Err(EditError::Cancelled),
+            // A try that fails leaves the first map.
+            _ => Ok(param),
+        }
+    }
+
     /// The field and the parameterization of a state (a pure function of it).
     pub fn solve(&self, state: &EditState, cancel: Cancel) -> Result<Solved, EditError> {
         self.solve_previewing(state, cancel, &crate::param::no_preview)
@@ -1314,6 +1376,11 @@ impl Base {
             Ordering::Relaxed,
         );
         lap("QuadCover solve", &mut timings);
+        let param = self.on_z2_if_folded(state, &matchings, &field.frames, param, cancel)?;
+        lap(
+            "QuadCover on Z² (the 2Z² map folded under curves)",
+            &mut timings,
+        );
         // The report's indices and energies come last: nothing on screen waits for them (and
         // the cores are busy until the global step's map is there).
         let indices = indices_from_angles(&self.mesh, &self.tr, &theta, &field.matchings, n);
