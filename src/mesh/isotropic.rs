@@ -36,8 +36,13 @@ pub const NEEDLE_AREA_SHARE: f64 = 0.2;
 /// [`too_coarse`]: a low-poly mesh has fewer vertices than this ...
 pub const COARSE_MAX_VERTICES: usize = 1_000;
 /// ... and this many times fewer than the grid. The shared meshes at the default density (10 000
-/// grid vertices) have 1 850 (kitten) and more: at most 5.4 times fewer.
-pub const COARSE_RATIO: f64 = 16.0;
+/// grid vertices) have 1 850 (kitten) and more: at most 5.4 times fewer. It was 16: a raw
+/// pocket with a boss (81 vertices, few needles) with features at 40° then solved raw at 800
+/// and 1000 target vertices (10 and 12 times) and kept 36 and 38 folded faces (conformal p99
+/// 3843 and 160); remeshed, none (p99 2.5). At 5 and 8 times raw parts map but with more
+/// distortion (the pocket at 400: p99 5.2 against 2.3 remeshed; a star prism, 20 vertices, at
+/// 160: 17.2 against 3.9).
+pub const COARSE_RATIO: f64 = 4.0;
 
 /// Vertices of a prepared input (`quadcover prepare`, `solve` on a raw tessellation, the
 /// editor's *Remesh input*) unless asked otherwise or the input has more ([`prepared_options`]):
