@@ -1235,7 +1235,7 @@ impl Base {
     /// comb with 7 slots at 1500 target vertices: 265 folded faces; on Z² none). The remesh of
     /// a Z² map is all quads all the same (its singularities between grid points are purified),
     /// with more irregular vertices. A fresh solver, without the edit model's factor reuse: it
-    /// is made only for maps that fold.
+    /// is made only for maps that fold. Also whether the try was made.
     fn on_z2_if_folded(
         &self,
         state: &EditState,
@@ -1243,14 +1243,14 @@ impl Base {
         frames: &[[glam::DVec3; 2]],
         param: Parameterization,
         cancel: Cancel,
-    ) -> Result<Parameterization, EditError> {
+    ) -> Result<(Parameterization, bool), EditError> {
         let opts = self.settings.param_options();
         let geometric = state
             .curves
             .values()
             .any(|c| c.kind == crate::constraint::CurveKind::Geometric);
         if !opts.pure_quad || opts.no_untangle || param.flipped_faces == 0 || !geometric {
-            return Ok(param);
+            return Ok((param, false));
         }
         let z2 = crate::param::ParamOptions {
             pure_quad: false,
@@ -1280,11 +1280,11 @@ impl Base {
             {
                 // The first map's repair is part of what the kept one cost.
                 other.timings.repair_ms += param.timings.repair_ms;
-                Ok(other)
+                Ok((other, true))
             }
             Err(ParamError::Cancelled) => Err(EditError::Cancelled),
             // A try that fails leaves the first map.
-            _ => Ok(param),
+            _ => Ok((param, true)),
         }
     }
 
@@ -1376,11 +1376,14 @@ impl Base {
             Ordering::Relaxed,
         );
         lap("QuadCover solve", &mut timings);
-        let param = self.on_z2_if_folded(state, &matchings, &field.frames, param, cancel)?;
-        lap(
-            "QuadCover on Z² (the 2Z² map folded under curves)",
-            &mut timings,
-        );
+        let (param, retried) =
+            self.on_z2_if_folded(state, &matchings, &field.frames, param, cancel)?;
+        if retried {
+            lap(
+                "QuadCover on Z² (the 2Z² map folded under curves)",
+                &mut timings,
+            );
+        }
         // The report's indices and energies come last: nothing on screen waits for them (and
         // the cores are busy until the global step's map is there).
         let indices = indices_from_angles(&self.mesh, &self.tr, &theta, &field.matchings, n);
