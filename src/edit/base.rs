@@ -529,8 +529,6 @@ impl Base {
             ),
         };
         let aligned = self.design_alignment(&state, &acute.alignments, stripes.map(|s| s.1));
-        let mut apexes = acute.apexes.clone();
-        apexes.sort_unstable();
         // (Only a hexagonal field is designed differently beside round rims.)
         let rims = if self.settings.symmetry == 6 {
             crate::constraint::rim_faces(&self.mesh, state.curves.values())
@@ -565,7 +563,7 @@ impl Base {
                 aligned: Some(aligned.clone()),
                 boundary_aligned: Some(Arc::new(along_boundary)),
                 rim_aligned: Some(rims.clone()),
-                kept_singular: Some(Arc::new(apexes)),
+                kept_singular: Some(Arc::new(acute.apexes.clone())),
                 ..self.settings.field_params()
             };
             let designed = |params: &crate::field::FieldParams, state: EditState| {
