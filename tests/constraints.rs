@@ -330,7 +330,8 @@ fn fandisk_acute_apex_keeps_its_singularity_on_coarse_grids() {
 /// a slot is 0 or at least 2 cells wide; here it measures 1.3, and the rounding put one slot's
 /// walls on one line (265 folded faces after the repair, the slot's floor folded end to end).
 /// The map is solved again on Z² (`Base::on_z2_if_folded`): no fold, and the remesh is all
-/// quads.
+/// quads. The rounding's collapsed strips are counted (`Parameterization::collapsed_strips`):
+/// with them the 2Z² map takes no crowded tries before that (5 s of tries, none kept).
 #[test]
 fn narrow_slots_at_a_coarse_grid_are_solved_on_z2() {
     let mesh = remeshed_as_solve_does(&test_data("comb7.obj"));
@@ -343,6 +344,13 @@ fn narrow_slots_at_a_coarse_grid_are_solved_on_z2() {
     let p = &solved.param;
     assert_eq!(p.lattice, Lattice::Z2, "the 2Z² map was kept");
     assert_eq!(p.flipped_faces, 0, "{} folded faces", p.flipped_faces);
+    // The 2Z² rounding put slot corners on the lines of the walls across (12 measured
+    // 2026-12-07), which sends the folded map to Z² without crowded tries.
+    assert!(
+        p.collapsed_strips >= 4,
+        "{} collapsed strips",
+        p.collapsed_strips
+    );
     let (remesh, _, _) = remesh_along_curves(&base, &state, &solved, "comb at 1500");
     remesh_checks::assert_manifold(&remesh, "comb at 1500");
     assert!(remesh.faces.iter().all(|f| f.len() == 4), "not all quads");
@@ -2011,6 +2019,9 @@ fn a_slotted_box_rounds_its_curve_values_near_the_map() {
     );
     check_geometric(&base, &state, &solved);
     assert_eq!(p.flipped_faces, 0);
+    // Its slots are several cells wide: no corner falls on the line of a wall across.
+    assert_eq!(p.collapsed_strips, 0);
+    assert_eq!(p.lattice, Lattice::TwoZ2);
     // The part is 2 × 2 × 1 with about 10 000 grid vertices, a few dozen cells across: its UVs
     // stay within a couple of hundred (8.8 million before).
     assert!(extent < 500.0, "UVs reach {extent}");

@@ -1055,7 +1055,14 @@ impl Document {
             None => String::new(),
         };
         if p.symmetry == 4 && p.lattice == crate::param::Lattice::Z2 && self.settings.pure_quad {
-            crowded_note.push_str("; rounded on Z² (on 2Z² the map folded under the curves)");
+            if p.collapsed_strips > 0 {
+                crowded_note.push_str(&format!(
+                    "; rounded on Z² (on 2Z² {} corners fell on the lines of creases under two cells away, and the map folded)",
+                    p.collapsed_strips
+                ));
+            } else {
+                crowded_note.push_str("; rounded on Z² (on 2Z² the map folded under the curves)");
+            }
         }
         self.param_summary = format!(
             "{} cut paths, {} flipped faces{repair_note}, seam error {:.1e}, conformal distortion {:.3}, curl {:.3}{crowded_note}",

@@ -211,6 +211,10 @@ struct Report {
     /// Gaps the repair rounded again (their first rounding put two branch points on one
     /// lattice point): cut path index, old and new value.
     rerounded_gaps: Vec<param::Rerounded>,
+    /// Quads under curves: corners where curves meet that the 2Z² rounding put on the line of
+    /// a parallel curve a cell or more from them (the strip between folds; such maps are
+    /// solved on Z² when they keep folds, see `lattice`).
+    collapsed_strips: usize,
     /// Interior vertices (file indices) whose fan turns by other than their cone angle
     /// although no face is folded: the map is not locally injective there.
     miswound_vertices: Vec<usize>,
@@ -819,12 +823,21 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         ));
     }
     if settings.param_options().pure_quad && p.lattice == param::Lattice::Z2 {
-        bar.line(
-            "  rounded on Z² (as --no-pure-quad): on 2Z² the map kept folds under the curves \
-             (creases closer than two grid cells, corners a cell apart); singularities between \
-             grid points give the remesh more irregular vertices"
-                .to_string(),
-        );
+        let why = if p.collapsed_strips > 0 {
+            format!(
+                "on 2Z² {} corners fell on the lines of parallel creases under two grid cells \
+                 from them and the strips between folded",
+                p.collapsed_strips
+            )
+        } else {
+            "on 2Z² the map kept folds under the curves (creases closer than two grid cells, \
+             corners a cell apart)"
+                .to_string()
+        };
+        bar.line(format!(
+            "  rounded on Z² (as --no-pure-quad): {why}; singularities between grid points give \
+             the remesh more irregular vertices"
+        ));
     }
     if p.flipped_faces > 0 && !settings.no_untangle {
         bar.line(format!(
@@ -877,6 +890,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             flipped_faces_before_repair: p.flipped_faces_before_repair,
             repair_ms: p.timings.repair_ms,
             rerounded_gaps: p.rerounded_gaps.clone(),
+            collapsed_strips: p.collapsed_strips,
             crowded_refinement: p.crowded_refinement.clone(),
             miswound_vertices: p
                 .miswound

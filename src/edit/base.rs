@@ -16,7 +16,9 @@ use crate::field::{
     reduce_matchings,
 };
 use crate::mesh::TriMesh;
-use crate::param::{ConstraintCurve, ParamAnalysis, ParamError, Parameterization, QuadCover};
+use crate::param::{
+    Collapse, ConstraintCurve, ParamAnalysis, ParamError, Parameterization, QuadCover,
+};
 
 /// Around the apex of an acute corner between two curves, the radius (in cancellation radii)
 /// within which opposite singularities on curves cancel. The design makes the apex a
@@ -1224,16 +1226,81 @@ impl Base {
             .map_err(|e| EditError::Param(e.to_string()))
     }
 
-    /// Quads under geometric curves: a map on 2Z² (`pure_quad`) that keeps folds after its
-    /// repair is solved again on Z², and the map with fewer folded faces, then wrongly wound
-    /// vertices, kept. On 2Z² every corner where curves meet is a singularity on an even
-    /// lattice point, so parallel creases between corners are 0 or at least 2 cells apart:
-    /// where they are closer in space than about two cells (a comb's slots, a gear's teeth at
-    /// coarse grids) the rounding puts some on one line and the faces between them fold (a
-    /// comb with 7 slots at 1500 target vertices: 265 folded faces; on Z² none). The remesh of
-    /// a Z² map is all quads all the same (its singularities between grid points are purified),
-    /// with more irregular vertices. A fresh solver, without the edit model's factor reuse: it
-    /// is made only for maps that fold. Also whether the try was made.
+    /// Whether a state's quads may be solved on Z² instead of 2Z² ([`Base::on_z2`]): under
+    /// geometric curves, with `pure_quad` and the repair on.
+    fn z2_allowed(&self, state: &EditState) -> bool {
+        let opts = self.settings.param_options();
+        opts.pure_quad
+            && !opts.no_untangle
+            && state
+                .curves
+                .values()
+                .any(|c| c.kind == crate::constraint::CurveKind::Geometric)
+    }
+
+    /// Quads under geometric curves on Z² instead of 2Z², by a fresh solver (without the edit
+    /// model's factor reuse: it is made only for the maps below). On 2Z² every corner where
+    /// curves meet is a singularity on an even lattice point, so parallel creases between
+    /// corners are 0 or at least 2 cells apart: where they are closer in space than about two
+    /// cells (a comb's slots, a gear's teeth at coarse grids) the rounding puts some on one
+    /// line and the faces between them fold (a comb with 7 slots at 1500 target vertices: 265
+    /// folded faces; on Z² none). The remesh of a Z² map is all quads all the same (its
+    /// singularities between grid points are purified), with more irregular vertices.
+    fn on_z2(
+        &self,
+        state: &EditState,
+        matchings: &[i32],
+        frames: &[[glam::DVec3; 2]],
+        cancel: Cancel,
+    ) -> Result<Parameterization, ParamError> {
+        let z2 = crate::param::ParamOptions {
+            pure_quad: false,
+            ..self.settings.param_options()
+        };
+        QuadCover::with_analysis(
+            &self.mesh,
+            self.settings.symmetry as usize,
+            matchings,
+            z2,
+            Some(&self.analysis),
+        )?
+        .solve_speculating(
+            &self.mesh,
+            frames,
+            &self.constraint_curves(state),
+            cancel,
+            &crate::param::no_preview,
+            false,
+            Collapse::Tries,
+        )
+    }
+
+    /// Of a map on 2Z² and one on Z² (or its failure), the one with fewer folded faces, then
+    /// wrongly wound vertices; the 2Z² map on a tie or when the other failed.
+    fn fewer_folds(
+        on_2z2: Parameterization,
+        on_z2: Result<Parameterization, ParamError>,
+    ) -> Result<Parameterization, EditError> {
+        match on_z2 {
+            Ok(mut other)
+                if (other.flipped_faces, other.miswound.len())
+                    < (on_2z2.flipped_faces, on_2z2.miswound.len()) =>
+            {
+                // The first map's repair is part of what the kept one cost, and its rounding
+                // says why it was made.
+                other.timings.repair_ms += on_2z2.timings.repair_ms;
+                other.collapsed_strips = on_2z2.collapsed_strips;
+                Ok(other)
+            }
+            Err(ParamError::Cancelled) => Err(EditError::Cancelled),
+            _ => Ok(on_2z2),
+        }
+    }
+
+    /// A 2Z² map under curves that keeps folds after its repair and its crowded tries (none
+    /// when its rounding collapsed strips between curves, [`Collapse::ToZ2`]), solved again
+    /// on Z² ([`Base::on_z2`]) and the better kept ([`Base::fewer_folds`]). Also whether the
+    /// try was made.
     fn on_z2_if_folded(
         &self,
         state: &EditState,
@@ -1242,48 +1309,11 @@ impl Base {
         param: Parameterization,
         cancel: Cancel,
     ) -> Result<(Parameterization, bool), EditError> {
-        let opts = self.settings.param_options();
-        let geometric = state
-            .curves
-            .values()
-            .any(|c| c.kind == crate::constraint::CurveKind::Geometric);
-        if !opts.pure_quad || opts.no_untangle || param.flipped_faces == 0 || !geometric {
+        if param.flipped_faces == 0 || !self.z2_allowed(state) {
             return Ok((param, false));
         }
-        let z2 = crate::param::ParamOptions {
-            pure_quad: false,
-            ..opts
-        };
-        let tried = QuadCover::with_analysis(
-            &self.mesh,
-            self.settings.symmetry as usize,
-            matchings,
-            z2,
-            Some(&self.analysis),
-        )
-        .and_then(|qc| {
-            qc.solve_speculating(
-                &self.mesh,
-                frames,
-                &self.constraint_curves(state),
-                cancel,
-                &crate::param::no_preview,
-                false,
-            )
-        });
-        match tried {
-            Ok(mut other)
-                if (other.flipped_faces, other.miswound.len())
-                    < (param.flipped_faces, param.miswound.len()) =>
-            {
-                // The first map's repair is part of what the kept one cost.
-                other.timings.repair_ms += param.timings.repair_ms;
-                Ok((other, true))
-            }
-            Err(ParamError::Cancelled) => Err(EditError::Cancelled),
-            // A try that fails leaves the first map.
-            _ => Ok((param, true)),
-        }
+        let z2 = self.on_z2(state, matchings, frames, cancel);
+        Ok((Self::fewer_folds(param, z2)?, true))
     }
 
     /// The field and the parameterization of a state (a pure function of it).
@@ -1353,6 +1383,14 @@ impl Base {
         // second core from its repair (1.1 M faces: 0.4–1 s).
         let speculate = crate::param::speculates(&self.mesh)
             && self.last_took_tries.load(Ordering::Relaxed) != 1;
+        // Quads under curves whose 2Z² rounding collapsed a strip between parallel curves
+        // take no crowded tries on 2Z² when the map keeps folds: the solve on Z² comes next
+        // instead (a gear's teeth at 1000 target vertices: 24 s of tries, none kept).
+        let collapse = if self.z2_allowed(state) {
+            Collapse::ToZ2
+        } else {
+            Collapse::Tries
+        };
         let param = qc
             .solve_speculating(
                 &self.mesh,
@@ -1361,14 +1399,9 @@ impl Base {
                 cancel,
                 preview,
                 speculate,
+                collapse,
             )
-            .map_err(|e| match e {
-                ParamError::Contradiction { curves, message } => {
-                    EditError::Contradiction { curves, message }
-                }
-                ParamError::Cancelled => EditError::Cancelled,
-                e => EditError::Param(e.to_string()),
-            })?;
+            .map_err(edit_error)?;
         self.last_took_tries.store(
             if param.took_crowded_tries() { 2 } else { 1 },
             Ordering::Relaxed,
@@ -1397,5 +1430,16 @@ impl Base {
             timings,
             reuse,
         })
+    }
+}
+
+/// A solve's failure as the edit model reports it: contradicting curves name their ids.
+fn edit_error(e: ParamError) -> EditError {
+    match e {
+        ParamError::Contradiction { curves, message } => {
+            EditError::Contradiction { curves, message }
+        }
+        ParamError::Cancelled => EditError::Cancelled,
+        e => EditError::Param(e.to_string()),
     }
 }

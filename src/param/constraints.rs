@@ -299,6 +299,9 @@ pub(crate) struct Traced {
     kernel: std::sync::OnceLock<Result<Vec<Vec<i128>>, String>>,
     /// Branch points beside geometric lines they are not on ([`off_lines`]).
     guards: Vec<off_lines::Guard>,
+    /// Corners beside the lines of geometric curves less than two cells away, never mended
+    /// ([`Traced::collapsed_strips`]); only on 2Z².
+    corner_guards: Vec<off_lines::Guard>,
     /// Whether [`Traced::round`] mends the guards (quads, [`Breaks::Across`]); with N = 6 only
     /// [`Traced::off_lines_try`] does, on request.
     mend_in_round: bool,
@@ -409,6 +412,7 @@ impl Traced {
             ears: Vec::new(),
             kernel: std::sync::OnceLock::new(),
             guards: Vec::new(),
+            corner_guards: Vec::new(),
             mend_in_round: lattice != Lattice::G6,
         };
         // The guards keeping branch points off the lines beside them ([`off_lines`]): for
@@ -559,6 +563,22 @@ impl Traced {
                     },
                 )
                 .collect();
+            // Only the 2Z² rounding puts corners on even lattice points ([`off_lines`]).
+            if lattice == Lattice::TwoZ2 {
+                out.corner_guards = off_lines::guards(
+                    mesh,
+                    cut,
+                    global,
+                    &out.lines,
+                    frames,
+                    &on_piece,
+                    &edge_piece,
+                    &lines_at,
+                    &ends,
+                    &measured,
+                    true,
+                );
+            }
             off_lines::guards(
                 mesh,
                 cut,
@@ -570,6 +590,7 @@ impl Traced {
                 &lines_at,
                 &ends,
                 &measured,
+                false,
             )
         };
         // Integer equations: fixed values on lines, and lines of one family meeting.

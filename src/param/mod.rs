@@ -83,6 +83,19 @@ pub enum ParamError {
     Cancelled,
 }
 
+/// Whether a first map under curves whose 2Z² rounding collapsed strips between parallel
+/// curves ([`Parameterization::collapsed_strips`]) and that keeps folds takes crowded tries
+/// ([`QuadCover::solve_speculating`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Collapse {
+    /// As any other map.
+    Tries,
+    /// None: no finer grid widens a strip the rounding collapsed (a comb's slots, a gear's
+    /// teeth at coarse grids: 3–24 s of tries, none kept), and the caller solves it on Z²
+    /// instead (`Base::on_z2_if_folded`).
+    ToZ2,
+}
+
 /// A cancel check polled by long steps (the repair): true = stop.
 pub type CancelCheck<'a> = &'a (dyn Fn() -> bool + Sync);
 
@@ -227,6 +240,12 @@ pub struct Parameterization {
     pub flipped_faces_before_repair: usize,
     /// Gaps the repair rounded again because their first rounding made folds unavoidable.
     pub rerounded_gaps: Vec<Rerounded>,
+    /// Under curves, quads on 2Z²: the corners where curves meet that the first rounding put
+    /// on the line of a parallel curve half a cell or more from them (and under two cells away
+    /// in space), collapsing the strip between
+    /// (`constraints::Traced::collapsed_strips`; no repair widens it again). A map solved on
+    /// Z² instead (`Base::on_z2_if_folded`) keeps the 2Z² rounding's count.
+    pub collapsed_strips: usize,
     /// Interior vertices whose fan turns by other than their cone angle 2π(1 − index) although
     /// no face around them need be folded (e.g. a −1/4 branch point turning 90° instead of
     /// 450° beside a vertex turning 720°): the map is not locally injective there, and the
@@ -848,12 +867,22 @@ impl QuadCover {
         cancel: CancelCheck<'_>,
         preview: PreviewSink<'_>,
     ) -> Result<Parameterization, ParamError> {
-        self.solve_speculating(mesh, frames, curves, cancel, preview, speculates(mesh))
+        self.solve_speculating(
+            mesh,
+            frames,
+            curves,
+            cancel,
+            preview,
+            speculates(mesh),
+            Collapse::Tries,
+        )
     }
 
     /// [`QuadCover::solve_previewing`], the crowded tries started beside the first solve when
     /// `speculate` says so (the editor's hint from its last solve; the map is the same either
-    /// way).
+    /// way). `collapse`: whether a first map that keeps folds where its rounding collapsed
+    /// strips between curves takes crowded tries.
+    #[allow(clippy::too_many_arguments)]
     pub fn solve_speculating(
         &self,
         mesh: &TriMesh,
@@ -862,8 +891,12 @@ impl QuadCover {
         cancel: CancelCheck<'_>,
         preview: PreviewSink<'_>,
         speculate: bool,
+        collapse: Collapse,
     ) -> Result<Parameterization, ParamError> {
-        let done = |p: &Parameterization| crowded_done(p, !curves.is_empty());
+        let done = |p: &Parameterization| {
+            crowded_done(p, !curves.is_empty())
+                || (collapse == Collapse::ToZ2 && p.collapsed_strips > 0 && p.flipped_faces > 0)
+        };
         let ladder = !self.opts.no_untangle && !self.opts.no_crowded_refinement;
         let stop: Vec<AtomicBool> = crowded::LADDER
             .iter()
@@ -1283,6 +1316,7 @@ impl QuadCover {
             flipped_faces: q.flipped,
             flipped_faces_before_repair: q.flipped,
             rerounded_gaps: Vec::new(),
+            collapsed_strips: 0,
             miswound: Vec::new(),
             poles: Vec::new(),
             untreated_poles: Vec::new(),
@@ -1429,8 +1463,16 @@ mod tests {
             };
             let qc = QuadCover::new(&mesh, n as usize, &f.matchings, opts).unwrap();
             let solve = |speculate| {
-                qc.solve_speculating(&mesh, &f.frames, &[], &|| false, &no_preview, speculate)
-                    .unwrap()
+                qc.solve_speculating(
+                    &mesh,
+                    &f.frames,
+                    &[],
+                    &|| false,
+                    &no_preview,
+                    speculate,
+                    Collapse::Tries,
+                )
+                .unwrap()
             };
             let (after, beside) = (solve(false), solve(true));
             let label = format!("N = {n}, {target:?}");

@@ -221,6 +221,7 @@ impl QuadCover {
         );
         p.curves = fits;
         p.rerounded_gaps = rerounded;
+        p.collapsed_strips = traced.collapsed_strips(&first_rounded);
         Ok(p)
     }
 

@@ -23,6 +23,14 @@
 //! ([`Traced::off_lines_try`]): mended in every rounding, they folded prisms that were
 //! fold-free without them (a T-shaped prism at 20 000 vertices, 0 → 11 folded faces with the
 //! first, 0 → 13 with the second).
+//!
+//! Corners (branch points on curves, where curves meet) have guards of their own, never
+//! mended: against the lines of parallel curves less than [`STRIP_CELLS`] away. With quads on
+//! 2Z² every corner is on an even lattice point, so such a strip rounds to zero or two cells;
+//! one rounded to zero although half a cell or more wide in the local step's map (a comb's
+//! slot at 1.3 cells) folds from end to end, and no repair or mending lifts it (each step keeps
+//! C_c w = 0 by narrowing another strip). [`Traced::collapsed_strips`] counts them, for the
+//! caller to solve on Z² instead (`Base::solve_previewing`).
 
 use std::collections::{HashMap, HashSet, VecDeque};
 
@@ -39,6 +47,16 @@ use crate::param::global::GlobalSystem;
 const REACH_CELLS: f64 = 5.0;
 /// Mending steps at most per broken guard (each mends one or more, or the mending stops).
 const STEPS_PER_GUARD: usize = 2;
+/// A strip at least this wide in the local step's map (in line spacings) that the rounding
+/// closes is collapsed ([`Traced::collapsed_strips`]). With 1 the gear's teeth at 1000 target
+/// vertices went unseen (0 counted, 49 at ½) and took 24 s of crowded tries; at ½ the scans
+/// with features count a few (fertility 3, fandisk 1), harmless there: only a map that keeps
+/// folds acts on the count.
+const COLLAPSED_CELLS: f64 = 0.5;
+/// Corners are guarded against the lines of curves within this many grid cells: the strips
+/// that the 2Z² rounding, which puts corners on even lattice points, can only collapse or
+/// widen to two cells.
+const STRIP_CELLS: f64 = 2.0;
 
 /// A branch point beside the line of a geometric curve piece, which the rounding must leave on
 /// its side: `side` · F(w) > 0.
@@ -48,6 +66,8 @@ pub(super) struct Guard {
     form: Form,
     /// The sign F has on the branch point's side of the line.
     side: f64,
+    /// side · F at the measured values (the local step's map).
+    measured: f64,
 }
 
 /// What breaks a guard.
@@ -72,7 +92,8 @@ pub(super) struct LineAt {
 }
 
 /// The guards of every branch point that lies on no geometric piece (`on_piece`: per vertex)
-/// beside the pieces' lines `lines_at`. `edge_piece`: per edge the geometric piece running
+/// beside the pieces' lines `lines_at`; with `corners`, instead those of the branch points on
+/// pieces (the corners where curves meet) beside the lines of pieces within [`STRIP_CELLS`]. `edge_piece`: per edge the geometric piece running
 /// along it (NONE: none), `ends` per piece its end vertices (none when closed). `frames`: per
 /// face, grid size 1 / |U|. `measured`: the integer unknowns' measured values.
 #[allow(clippy::too_many_arguments)]
@@ -87,6 +108,7 @@ pub(super) fn guards(
     lines_at: &[LineAt],
     ends: &[Vec<usize>],
     measured: &[f64],
+    corners: bool,
 ) -> Vec<Guard> {
     let mut at_face: HashMap<usize, Vec<&LineAt>> = HashMap::new();
     for l in lines_at {
@@ -95,7 +117,7 @@ pub(super) fn guards(
     let cut_edge = |e: usize| !cut.transitions[e].is_identity();
     let mut out = Vec::new();
     let mut seen_forms: HashSet<(usize, Vec<(usize, i64)>)> = HashSet::new();
-    for v in (0..mesh.n_vertices()).filter(|&v| cut.singular[v] && !on_piece[v]) {
+    for v in (0..mesh.n_vertices()).filter(|&v| cut.singular[v] && on_piece[v] == corners) {
         let p = mesh.position(v);
         let cells: Vec<f64> = mesh
             .outgoing(v)
@@ -162,7 +184,18 @@ pub(super) fn guards(
                 for g in 3 * f..3 * f + 3 {
                     let e = mesh.edge(g);
                     let piece = edge_piece[e];
-                    if piece == NONE || nearest.get(&piece).is_none_or(|n| n.1) {
+                    let Some(&(d, at_end)) = nearest.get(&piece) else {
+                        continue;
+                    };
+                    // A corner is beside the pieces that do not run through it and come
+                    // within a strip's width, their ends included (a slot's far wall is
+                    // nearest at its foot, the slot floor's other corner).
+                    let beside = if corners {
+                        d > 1e-12 && d <= STRIP_CELLS * reach / REACH_CELLS
+                    } else {
+                        !at_end
+                    };
+                    if piece == NONE || !beside {
                         continue;
                     }
                     // The piece's line in this chart: from this face when it is the piece's
@@ -202,7 +235,11 @@ pub(super) fn guards(
                         {
                             continue;
                         }
-                        out.push(Guard { form, side });
+                        out.push(Guard {
+                            measured: side * eval(&form, measured),
+                            form,
+                            side,
+                        });
                     }
                 }
             }
@@ -225,6 +262,12 @@ fn nearest_on_segment(p: DVec3, a: DVec3, b: DVec3) -> (f64, Option<u8>) {
 }
 
 impl Guard {
+    /// Whether `w` puts a corner on or across the line of a parallel curve at least
+    /// [`COLLAPSED_CELLS`] from it in the measured map: the strip between them collapses.
+    fn collapsed_by(&self, w: &[f64]) -> bool {
+        self.measured >= COLLAPSED_CELLS && self.broken_by(w, Breaks::Across)
+    }
+
     /// Whether `w` breaks the guard: the branch point on the line beside it (or across it,
     /// [`Breaks::Across`]).
     fn broken_by(&self, w: &[f64], breaks: Breaks) -> bool {
@@ -237,6 +280,15 @@ impl Guard {
 }
 
 impl Traced {
+    /// The corners `w` puts on or across the line of a parallel curve beside them that was at
+    /// least [`COLLAPSED_CELLS`] away in the local step's map ([`Traced::corner_guards`]).
+    pub fn collapsed_strips(&self, w: &[f64]) -> usize {
+        self.corner_guards
+            .iter()
+            .filter(|g| g.collapsed_by(w))
+            .count()
+    }
+
     /// The guards `w` breaks.
     fn broken(&self, w: &[f64], breaks: Breaks) -> usize {
         self.guards
