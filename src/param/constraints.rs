@@ -533,8 +533,8 @@ impl Traced {
             out.emits.push(emits);
             out.ears.push(ears);
         }
-        out.guards = if !guarded {
-            Vec::new()
+        (out.guards, out.corner_guards) = if !guarded {
+            (Vec::new(), Vec::new())
         } else {
             let mut on_piece = vec![false; mesh.n_vertices()];
             let mut edge_piece = vec![NONE; mesh.n_edges()];
@@ -563,9 +563,8 @@ impl Traced {
                     },
                 )
                 .collect();
-            // Only the 2Z² rounding puts corners on even lattice points ([`off_lines`]).
-            if lattice == Lattice::TwoZ2 {
-                out.corner_guards = off_lines::guards(
+            let guards = |corners: bool| {
+                off_lines::guards(
                     mesh,
                     cut,
                     global,
@@ -576,22 +575,16 @@ impl Traced {
                     &lines_at,
                     &ends,
                     &measured,
-                    true,
-                );
-            }
-            off_lines::guards(
-                mesh,
-                cut,
-                global,
-                &out.lines,
-                frames,
-                &on_piece,
-                &edge_piece,
-                &lines_at,
-                &ends,
-                &measured,
-                false,
-            )
+                    corners,
+                )
+            };
+            // Only the 2Z² rounding puts corners on even lattice points ([`off_lines`]).
+            let corner_guards = if lattice == Lattice::TwoZ2 {
+                guards(true)
+            } else {
+                Vec::new()
+            };
+            (guards(false), corner_guards)
         };
         // Integer equations: fixed values on lines, and lines of one family meeting.
         let mut rows: Vec<(Form, Vec<usize>)> =
