@@ -550,7 +550,11 @@ fn lll_with(basis: &mut [Vec<i128>], mut gs: impl GramSchmidt) -> Result<(), Str
         } else {
             basis.swap(i, i - 1);
             gs.swapped(i);
-            gs.row(i - 1, &mut mu, &mut bs);
+            // Row i − 1 is recomputed at the loop's top when i − 1 ≥ 1 (its inputs do not
+            // change before): only row 0 needs it here.
+            if i == 1 {
+                gs.row(0, &mut mu, &mut bs);
+            }
             i = (i - 1).max(1);
         }
     }
@@ -663,15 +667,27 @@ struct ByVectors {
 impl GramSchmidt for ByVectors {
     fn row(&mut self, i: usize, mu: &mut [Vec<f64>], bs: &mut [f64]) {
         let mut v = self.bf[i].clone();
+        // b_i is sparse (the kernel's vectors): its products with the dense b*_j over its
+        // support only, in the same order (the terms left out are exact zeros).
+        let support: Vec<(usize, f64)> = v
+            .iter()
+            .enumerate()
+            .filter(|&(_, &x)| x != 0.0)
+            .map(|(l, &x)| (l, x))
+            .collect();
         for j in 0..i {
             let m = if bs[j] > 0.0 {
-                dot(&self.bf[i], &self.star[j]) / bs[j]
+                let star = &self.star[j];
+                support.iter().map(|&(l, x)| x * star[l]).sum::<f64>() / bs[j]
             } else {
                 0.0
             };
             mu[i][j] = m;
-            for (x, y) in v.iter_mut().zip(&self.star[j]) {
-                *x -= m * y;
+            // (b_i ⟂ b*_j: nothing to take off.)
+            if m != 0.0 {
+                for (x, y) in v.iter_mut().zip(&self.star[j]) {
+                    *x -= m * y;
+                }
             }
         }
         bs[i] = dot(&v, &v);
