@@ -664,7 +664,8 @@ impl Traced {
         let (involved, rows) = self.involved();
         if !involved.is_empty() {
             let t: Vec<f64> = involved.iter().map(|&k| target[k]).collect();
-            let metric = self.metric(hessian, &involved);
+            let metric =
+                super::integer::sparse_rows(&self.metric(hessian, &involved), involved.len());
             let sol = self
                 .kernel(&rows, involved.len())
                 .and_then(|basis| {
@@ -759,16 +760,21 @@ impl Traced {
         let at = involved.iter().position(|&x| x == k)?;
         let m = 2 * self.n_gaps;
         let n = involved.len();
-        let mut metric = vec![0.0; n * n];
-        for (i, &x) in involved.iter().enumerate() {
-            metric[i * n + i] = if i == at {
-                1e8
-            } else if x < m {
-                1e4
-            } else {
-                1.0
-            };
-        }
+        // Diagonal: by its rows' single entries.
+        let metric: Vec<Vec<(usize, f64)>> = involved
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| {
+                let weight = if i == at {
+                    1e8
+                } else if x < m {
+                    1e4
+                } else {
+                    1.0
+                };
+                vec![(i, weight)]
+            })
+            .collect();
         let t: Vec<f64> = involved.iter().map(|&x| out[x]).collect();
         let basis = self.kernel(&rows, n).ok()?;
         let sol = super::integer::nearest_in_lattice(basis, n, &t, Some(&metric)).ok()?;
