@@ -212,8 +212,9 @@ struct Report {
     /// lattice point): cut path index, old and new value.
     rerounded_gaps: Vec<param::Rerounded>,
     /// Quads under curves: corners where curves meet that the 2Z² rounding put on the line of
-    /// a parallel curve a cell or more from them (the strip between folds; such maps are
-    /// solved on Z² when they keep folds, see `lattice`).
+    /// a curve under two cells away in space and half a cell or more from it in the local
+    /// step's map (the strip between folds; such maps are solved on Z² when they keep folds,
+    /// see `lattice`).
     collapsed_strips: usize,
     /// Interior vertices (file indices) whose fan turns by other than their cone angle
     /// although no face is folded: the map is not locally injective there.

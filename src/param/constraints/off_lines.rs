@@ -93,9 +93,10 @@ pub(super) struct LineAt {
 
 /// The guards of every branch point that lies on no geometric piece (`on_piece`: per vertex)
 /// beside the pieces' lines `lines_at`; with `corners`, instead those of the branch points on
-/// pieces (the corners where curves meet) beside the lines of pieces within [`STRIP_CELLS`]. `edge_piece`: per edge the geometric piece running
-/// along it (NONE: none), `ends` per piece its end vertices (none when closed). `frames`: per
-/// face, grid size 1 / |U|. `measured`: the integer unknowns' measured values.
+/// pieces (the corners where curves meet) beside the lines of pieces within [`STRIP_CELLS`].
+/// `edge_piece`: per edge the geometric piece running along it (NONE: none), `ends` per piece
+/// its end vertices (none when closed). `frames`: per face, grid size 1 / |U|. `measured`: the
+/// integer unknowns' measured values.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn guards(
     mesh: &TriMesh,
