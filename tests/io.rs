@@ -182,6 +182,36 @@ fn stl_welds_in_first_occurrence_order() {
     assert_eq!(s.warnings, vec!["welded 2 coincident vertices".to_string()]);
 }
 
+/// Text files saved with a UTF-8 byte order mark and CRLF line ends (Windows editors) read as
+/// the same cube, by extension and sniffed: the mark is no part of the first record (an OBJ
+/// starting with a vertex lost it, and every face index was then off by one).
+#[test]
+fn byte_order_marks_and_crlf_are_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let expected = cube_soup();
+    for f in ["cube.obj", "cube.off", "cube_ascii.ply", "cube_ascii.stl"] {
+        let text = std::fs::read_to_string(data(&format!("ok/{f}"))).unwrap();
+        // The first record on the first line, as in a file written without comments.
+        let body: String = text
+            .lines()
+            .skip_while(|l| f.ends_with(".obj") && !l.starts_with("v "))
+            .map(|l| format!("{l}\r\n"))
+            .collect();
+        let bytes = [b"\xEF\xBB\xBF".as_slice(), body.as_bytes()].concat();
+        let ext = f.rsplit('.').next().unwrap();
+        for name in [format!("bom.{ext}"), format!("bom_{ext}")] {
+            let p = dir.path().join(&name);
+            std::fs::write(&p, &bytes).unwrap();
+            let s = read_mesh(&p).unwrap_or_else(|e| panic!("{f} as {name}: {e}"));
+            assert_eq!(
+                geometric_triangles(&s),
+                geometric_triangles(&expected),
+                "{f} as {name}"
+            );
+        }
+    }
+}
+
 #[test]
 fn read_mesh_dispatch_and_sniffing() {
     let dir = tempfile::tempdir().unwrap();

@@ -67,7 +67,7 @@ impl Format {
         if stl::is_binary_stl(bytes) {
             return Some(Format::Stl);
         }
-        let head = &bytes[..bytes.len().min(4096)];
+        let head = without_bom(&bytes[..bytes.len().min(4096)]);
         let text = String::from_utf8_lossy(head);
         let first = text
             .lines()
@@ -299,8 +299,16 @@ pub(crate) fn check_index(
 pub(crate) fn text_lines(bytes: &[u8]) -> impl Iterator<Item = (usize, Cow<'_, str>)> {
     bytes.split(|&b| b == b'\n').enumerate().map(|(i, l)| {
         let l = l.strip_suffix(b"\r").unwrap_or(l);
+        // Editors on Windows may start a UTF-8 text file with a byte order mark; it is no part
+        // of the first record (an OBJ's first vertex was lost to it).
+        let l = if i == 0 { without_bom(l) } else { l };
         (i + 1, String::from_utf8_lossy(l))
     })
+}
+
+/// `bytes` without a leading UTF-8 byte order mark.
+pub(crate) fn without_bom(bytes: &[u8]) -> &[u8] {
+    bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes)
 }
 
 /// Parse a float token, with a message naming the token.

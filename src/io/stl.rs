@@ -31,7 +31,7 @@ pub(crate) fn is_binary_stl(bytes: &[u8]) -> bool {
 }
 
 fn looks_ascii(bytes: &[u8]) -> bool {
-    let trimmed = bytes.trim_ascii_start();
+    let trimmed = super::without_bom(bytes).trim_ascii_start();
     trimmed.starts_with(b"solid")
         && trimmed[..trimmed.len().min(1024)]
             .iter()
