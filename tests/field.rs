@@ -604,6 +604,9 @@ fn json_round_trip_is_exact_and_import_is_validated() {
     let back = io::from_json(&text, &torus).unwrap();
     assert!(back == res.field, "bit-exact round trip");
     assert_eq!(io::to_json(&back).unwrap(), text);
+    // A byte order mark before the JSON (some Windows editors) is skipped.
+    let marked = io::from_json(&format!("\u{feff}{text}"), &torus).unwrap();
+    assert!(marked == res.field);
 
     // Awkward doubles: subnormals, extremes, 17-digit values.
     let mut awkward = res.field.clone();

@@ -264,6 +264,8 @@ impl Project {
             path: path.to_path_buf(),
             message,
         };
+        // A byte order mark (left by some editors on Windows) is no JSON.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let value: serde_json::Value =
             serde_json::from_str(text).map_err(|e| ProjectError::Syntax {
                 path: path.to_path_buf(),
@@ -462,6 +464,8 @@ mod tests {
         assert!(json.contains("\"no_pole_merges\": true"), "{json}");
         let back = Project::from_json(&json, Path::new("p.json")).unwrap();
         assert_eq!(back, p);
+        let marked = format!("\u{feff}{json}");
+        assert_eq!(Project::from_json(&marked, Path::new("p.json")).unwrap(), p);
         // Absent settings take the defaults (poles allowed).
         let old = json.replace("\"no_pole_merges\": true,", "");
         let back = Project::from_json(&old, Path::new("p.json")).unwrap();

@@ -64,6 +64,7 @@ pub fn to_json(field: &FrameField) -> Result<String, FieldError> {
 /// Parses a field and validates it against `mesh`: counts, symmetry, matching range, finite
 /// frames, and 0 on boundary edges.
 pub fn from_json(text: &str, mesh: &TriMesh) -> Result<FrameField, FieldError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let file: FieldFile =
         serde_json::from_str(text).map_err(|e| FieldError::Format(e.to_string()))?;
     if file.format != FORMAT_NAME {
