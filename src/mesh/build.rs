@@ -396,6 +396,11 @@ fn orient(
             adj[g as usize].push((f, same));
         }
     }
+    // The edge map's order differs from run to run; the walk, and so the face a conflict is
+    // reported at, must not.
+    for a in &mut adj {
+        a.sort_unstable();
+    }
     let mut flip: Vec<Option<bool>> = vec![None; n];
     let mut result = Vec::new();
     let mut component = 0;

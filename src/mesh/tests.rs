@@ -236,8 +236,43 @@ fn moebius_strip_is_non_orientable() {
         f.push([a, c, d]);
         f.push([a, d, b]);
     }
-    let err = TriMesh::from_triangles(p, f).unwrap_err();
+    let err = TriMesh::from_triangles(p.clone(), f.clone()).unwrap_err();
     assert!(matches!(err, MeshError::NonOrientable { .. }), "{err}");
+}
+
+/// The face a non-orientable surface's conflict is reported at is the same every time: it
+/// depended on a hash map's order (a Klein bottle's name changed from run to run).
+#[test]
+fn non_orientable_conflict_is_reported_at_one_face() {
+    // A Möbius band of n × m quads: column n is column 0 with its rows reversed.
+    let (n, m) = (40, 8);
+    let mut p = Vec::new();
+    for i in 0..n {
+        let a = PI * i as f64 / n as f64 * 2.0;
+        for j in 0..=m {
+            let s = -0.3 + 0.6 * j as f64 / m as f64;
+            let r = 1.0 + s * (a / 2.0).cos();
+            p.push(DVec3::new(r * a.cos(), r * a.sin(), s * (a / 2.0).sin()));
+        }
+    }
+    let at = |i: usize, j: usize| {
+        let (i, j) = if i == n { (0, m - j) } else { (i, j) };
+        (i * (m + 1) + j) as u32
+    };
+    let mut f = Vec::new();
+    for i in 0..n {
+        for j in 0..m {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            f.push([a, b, c]);
+            f.push([a, c, d]);
+        }
+    }
+    let first = TriMesh::from_triangles(p.clone(), f.clone()).unwrap_err();
+    assert!(matches!(first, MeshError::NonOrientable { .. }), "{first}");
+    for _ in 0..16 {
+        let again = TriMesh::from_triangles(p.clone(), f.clone()).unwrap_err();
+        assert_eq!(again.to_string(), first.to_string());
+    }
 }
 
 #[test]
