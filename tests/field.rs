@@ -155,6 +155,18 @@ fn generated_closed_surfaces_satisfy_index_theorem() {
     }
 }
 
+/// A sphere is umbilic everywhere: its curvature directions are noise and must guide nothing
+/// (`field::curvature::UMBILIC_RATIO`). Its quad field then has the eight +1/4 singularities of
+/// a cube's layout; guided by the noise it had 88 on this icosphere.
+#[test]
+fn a_sphere_is_guided_by_no_curvature_direction() {
+    let sphere = generate::icosphere(5);
+    let res = compute_field(&sphere, &params(Symmetry::Four)).unwrap();
+    let ks: Vec<i32> = res.indices.singularities.iter().map(|s| s.k).collect();
+    assert_eq!(ks, vec![1; 8], "singularities {ks:?}");
+    assert!(res.omega.iter().all(|w| *w == 0.0), "weights on umbilics");
+}
+
 #[test]
 fn flat_disc_has_no_interior_singularities_and_boundary_convention_holds() {
     let disc = generate::disc(1.0, 24);
