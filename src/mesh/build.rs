@@ -267,19 +267,36 @@ impl TriMesh {
     }
 }
 
+/// Coordinates past this overflow the geometry: a face's area is the length of a cross product
+/// of edges, whose squared components grow as the fourth power of the coordinates (f64 reaches
+/// 1.8e308, so 1e77 at most).
+const MAX_COORDINATE: f64 = 1e75;
+
 fn check_coordinates(soup: &PolygonSoup) -> Result<(), MeshError> {
+    let at = |v: usize| {
+        format!(
+            "{} = {:?}",
+            soup.describe_vertex(v),
+            soup.positions[v].to_array()
+        )
+    };
     let bad: Vec<usize> = (0..soup.positions.len())
         .filter(|&v| !soup.positions[v].is_finite())
         .collect();
-    match bad.first() {
-        None => Ok(()),
-        Some(&v) => Err(MeshError::NonFinite {
+    if let Some(&v) = bad.first() {
+        return Err(MeshError::NonFinite {
             count: bad.len(),
-            at: format!(
-                "{} = {:?}",
-                soup.describe_vertex(v),
-                soup.positions[v].to_array()
-            ),
+            at: at(v),
+        });
+    }
+    let huge: Vec<usize> = (0..soup.positions.len())
+        .filter(|&v| soup.positions[v].abs().max_element() > MAX_COORDINATE)
+        .collect();
+    match huge.first() {
+        None => Ok(()),
+        Some(&v) => Err(MeshError::Huge {
+            count: huge.len(),
+            at: at(v),
         }),
     }
 }

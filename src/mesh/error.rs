@@ -21,6 +21,10 @@ pub enum MeshError {
     },
     #[error("{count} vertex coordinate(s) are NaN or infinite; first: {at}")]
     NonFinite { count: usize, at: String },
+    #[error(
+        "{count} vertex coordinate(s) beyond ±1e75, where face areas overflow; first: {at} (scale the model down)"
+    )]
+    Huge { count: usize, at: String },
     #[error("{count} degenerate face(s) (zero area or a repeated vertex); first: {at}")]
     DegenerateFace { count: usize, at: String },
     #[error(
@@ -45,4 +49,12 @@ pub enum MeshError {
         "non-orientable surface (a Möbius-like band): component {component} cannot be oriented consistently; the conflict shows at {at}"
     )]
     NonOrientable { component: usize, at: String },
+    #[error(
+        "remeshing at edge length {edge_length:.3e} would make about {vertices:.2e} vertices, more than the limit of {limit:.0e}: ask for a longer edge length (or fewer target vertices)"
+    )]
+    TooLarge {
+        edge_length: f64,
+        vertices: f64,
+        limit: f64,
+    },
 }

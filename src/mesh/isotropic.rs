@@ -51,6 +51,10 @@ pub const PREPARED_VERTICES: usize = 20_000;
 /// Feature angle (degrees) a prepared input keeps: QuadWild's default for sharp features.
 pub const PREPARED_FEATURE_ANGLE: f64 = 35.0;
 
+/// The most vertices a remesh may be asked for: past it the work runs for minutes and takes
+/// many gigabytes (a torus remeshed for 10⁸ target vertices filled 9.7 GB within a minute).
+pub const MAX_VERTICES: f64 = 2e7;
+
 /// Options of [`isotropic_remesh`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IsotropicOptions {
@@ -190,6 +194,15 @@ pub fn isotropic_remesh(mesh: &TriMesh, opts: &IsotropicOptions) -> Result<TriMe
     let l = opts.edge_length;
     if !(l.is_finite() && l > 0.0) {
         return Ok(mesh.clone());
+    }
+    // A vertex per two equilateral triangles of side l (as `IsotropicOptions::for_vertices`).
+    let vertices = 2.0 * mesh.total_area() / (3f64.sqrt() * l * l);
+    if vertices > MAX_VERTICES {
+        return Err(MeshError::TooLarge {
+            edge_length: l,
+            vertices,
+            limit: MAX_VERTICES,
+        });
     }
     let (kind, feature, chain_segments) = features(mesh, opts.feature_angle_deg);
     let surface = Surface::new(mesh);

@@ -422,3 +422,31 @@ proptest! {
         }
     }
 }
+
+/// Coordinates so large that face areas overflow are refused by name (an octahedron at 1e300
+/// was "a mesh of zero area" to the field); one at 1e70 is fine.
+#[test]
+fn coordinates_whose_squares_overflow_are_refused() {
+    let (p, f) = octahedron();
+    let huge: Vec<DVec3> = p.iter().map(|x| *x * 1e300).collect();
+    let e = TriMesh::from_triangles(huge, f.clone()).unwrap_err();
+    assert!(matches!(e, MeshError::Huge { count: 6, .. }), "{e}");
+    assert!(e.to_string().contains("vertex 0"), "{e}");
+    let large: Vec<DVec3> = p.iter().map(|x| *x * 1e70).collect();
+    let m = TriMesh::from_triangles(large, f).unwrap();
+    assert!(m.total_area().is_finite() && m.total_area() > 0.0);
+}
+
+/// A remesh asked for far too many vertices is refused before any work (a torus at 10⁸
+/// target vertices filled 9.7 GB within a minute).
+#[test]
+fn a_remesh_past_the_vertex_limit_is_refused() {
+    use crate::mesh::isotropic::{IsotropicOptions, MAX_VERTICES, isotropic_remesh};
+    let (p, f) = octahedron();
+    let m = TriMesh::from_triangles(p, f).unwrap();
+    let opts = IsotropicOptions::for_vertices(&m, (4.0 * MAX_VERTICES) as usize, 35.0);
+    let e = isotropic_remesh(&m, &opts).unwrap_err();
+    assert!(matches!(e, MeshError::TooLarge { .. }), "{e}");
+    let fine = IsotropicOptions::for_vertices(&m, 500, 35.0);
+    assert!(isotropic_remesh(&m, &fine).is_ok());
+}

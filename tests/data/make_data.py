@@ -127,6 +127,7 @@ w("broken/index_out_of_range.ply",
   "3 0 1 2\n3 0 2 3\n")
 w("broken/nan_coordinate.obj", "# NaN in the third vertex\nv 0 0 0\nv 1 0 0\nv nan 0 0\nf 1 2 3\n")
 w("broken/inf_coordinate.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1e999 1 0\nf 1 2 3\nf 2 4 3\n")
+w("broken/huge_coordinate.obj", "v 0 0 0\nv 1e200 0 0\nv 0 1e200 0\nv 1e200 1e200 0\nf 1 2 3\nf 2 4 3\n")
 w("broken/bad_number.obj", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n")
 w("broken/index_out_of_range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n# faces\nf 1 2 3\nf 2 4 9\n")
 w("broken/zero_index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n")
