@@ -157,6 +157,10 @@ fn topological_defects_in_files_are_reported_with_their_location() {
         "{e}"
     );
     assert!(e.to_string().contains("line"), "{e}");
+    // Face areas overflow past 1e77: the field saw "a mesh of zero area" before.
+    let e = invalid("huge_coordinate.obj");
+    assert!(matches!(e, MeshError::Huge { count: 3, .. }), "{e}");
+    assert!(e.to_string().contains("line 2"), "{e}");
 }
 
 #[test]
@@ -316,4 +320,88 @@ fn solve_names_the_file_of_every_broken_mesh() {
         stderr.contains("nowhere.obj") && stderr.contains("lost.qcproj.json"),
         "{stderr}"
     );
+}
+
+/// `solve` remeshes a far too coarse input by itself; when that remesh fails, the input is
+/// solved as it is, with a warning. `tests/data/sliver_tjunction.obj` (an icosphere of 642
+/// vertices with a sliver at a T-junction, from a robustness sweep) made the remesher leave
+/// zero-area faces, and `solve` exited with "remeshing the input failed" although
+/// `--keep-input` solved it.
+#[test]
+fn solve_keeps_the_input_when_remeshing_it_by_itself_fails() {
+    let input = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/sliver_tjunction.obj");
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_quadcover"))
+        .arg("solve")
+        .arg(&input)
+        .arg("--out")
+        .arg(dir.path().join("uv.obj"))
+        .arg("--remesh")
+        .arg(dir.path().join("quads.obj"))
+        .output()
+        .expect("run quadcover solve");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(dir.path().join("quads.obj").exists(), "{stderr}");
+    assert!(
+        stderr.contains("remeshed") || stderr.contains("solving on the input as it is"),
+        "{stderr}"
+    );
+}
+
+/// `extract` names what is wrong with its input: a mesh format other than OBJ (its reader read a
+/// PLY's text as an OBJ without vertices), and a texture coordinate that is not finite (named
+/// by corner number alone before).
+#[test]
+fn extract_names_a_wrong_format_and_a_bad_texture_coordinate() {
+    let dir = tempfile::tempdir().unwrap();
+    let extract = |input: &Path| {
+        let out = Command::new(env!("CARGO_BIN_EXE_quadcover"))
+            .arg("extract")
+            .arg(input)
+            .arg("--out")
+            .arg(dir.path().join("quads.obj"))
+            .output()
+            .expect("run quadcover extract");
+        assert_eq!(out.status.code(), Some(2));
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    let ply = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/ok/cube_ascii.ply");
+    let e = extract(&ply);
+    assert!(e.contains("PLY") && e.contains("reads an OBJ"), "{e}");
+    let obj = dir.path().join("nan_uv.obj");
+    std::fs::write(
+        &obj,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt nan 1\nvt 1 1\n\
+         f 1/1 2/2 3/3\nf 2/2 4/4 3/3\n",
+    )
+    .unwrap();
+    let e = extract(&obj);
+    assert!(e.contains("not finite") && e.contains("line 9"), "{e}");
+}
+
+/// Option values that would silently do nothing are refused: a feature angle outside (0°, 180°)
+/// (NaN or 1000 picked no edge) and `--dual` without six-fold symmetry (no hexagons to write).
+#[test]
+fn solve_refuses_option_values_that_do_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let cube = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/ok/cube.obj");
+    for (extra, needle) in [
+        (&["--features", "nan"][..], "--features"),
+        (&["--features", "1000"][..], "--features"),
+        (&["--features", "0"][..], "--features"),
+        (&["--dual", "--remesh", "tris.obj"][..], "--symmetry 6"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_quadcover"))
+            .arg("solve")
+            .arg(&cube)
+            .arg("--out")
+            .arg(dir.path().join("uv.obj"))
+            .args(extra)
+            .output()
+            .expect("run quadcover solve");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{extra:?}: {stderr}");
+        assert!(stderr.contains(needle), "{extra:?}: {stderr}");
+    }
 }

@@ -42,6 +42,20 @@ pub struct ExtractArgs {
 pub fn run(args: &ExtractArgs) -> Result<(), CliError> {
     let bytes = std::fs::read(&args.mesh)
         .map_err(|e| format!("{}: cannot read: {e}", args.mesh.display()))?;
+    use crate::io::Format;
+    // Only an OBJ carries per-corner texture coordinates: a PLY's or STL's text read as one
+    // gave "the file contains no vertices".
+    if let Some(f) = Format::from_path(&args.mesh)
+        .or_else(|| Format::sniff(&bytes))
+        .filter(|f| *f != Format::Obj)
+    {
+        return Err(format!(
+            "{}: this is {f}; `extract` reads an OBJ with per-corner texture coordinates (`vt`), \
+             as `solve --out` writes",
+            args.mesh.display()
+        )
+        .into());
+    }
     let data = read_obj_bytes(&bytes).map_err(|e| format!("{}: {e}", args.mesh.display()))?;
     let Some(corner_uvs) = data.corner_uvs else {
         return Err(format!(
@@ -50,6 +64,17 @@ pub fn run(args: &ExtractArgs) -> Result<(), CliError> {
         )
         .into());
     };
+    if let Some(c) = corner_uvs
+        .iter()
+        .position(|uv| !uv.iter().all(|x| x.is_finite()))
+    {
+        return Err(format!(
+            "{}: a texture coordinate of {} is not finite",
+            args.mesh.display(),
+            data.soup.describe_triangle(c / 3)
+        )
+        .into());
+    }
     let (mesh, repair) =
         TriMesh::from_soup(&data.soup).map_err(|e| format!("{}: {e}", args.mesh.display()))?;
     // Map the file's triangles to the mesh's faces (repairs may drop or re-orient triangles).

@@ -373,6 +373,13 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     if args.target_vertices == Some(0) {
         return Err("--target-vertices must be positive".into());
     }
+    // A dihedral angle: NaN or 180° and more would pick no edge, silently.
+    if let Some(a) = args.features.filter(|a| !(*a > 0.0 && *a < 180.0)) {
+        return Err(format!(
+            "--features takes a dihedral angle between 0 and 180 degrees, got {a}"
+        )
+        .into());
+    }
     let project = match &args.project {
         Some(path) => Some(Project::load(path)?),
         None => None,
@@ -380,6 +387,12 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let settings = settings_from(args, project.as_ref().map(|p| &p.settings))?;
     let symmetry = Symmetry::from_n(settings.symmetry)?;
     let n = settings.symmetry as usize;
+    if args.dual && n != 6 {
+        return Err(format!(
+            "--dual writes the hexagon mesh dual to a triangle remesh: it needs --symmetry 6 (here {n})"
+        )
+        .into());
+    }
     let mesh_path = match (&args.mesh, &project, &args.project) {
         (Some(m), _, _) => m.clone(),
         (None, Some(p), Some(pp)) => p.mesh_path(pp),
@@ -415,6 +428,11 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     })?;
     let (mesh, repair) =
         TriMesh::from_soup(&soup).map_err(|e| format!("{}: {e}", mesh_path.display()))?;
+    // The safe repairs and what is only warned about (an unwelded soup solves as a thousand
+    // separate pieces): `info` and the editor list them too.
+    for w in &repair.warnings {
+        bar.line(format!("  warning: {w}"));
+    }
     let needles = needle_area_share(&mesh);
     let params = settings.field_params();
     // The grid's vertex count when the input is far coarser.
@@ -429,56 +447,75 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     } else {
         format!("{:.0} % of its area in needles", 100.0 * needles)
     };
-    let (soup, mesh, repair, prepared_input) =
-        if args.prepare || (raw && project.is_none() && args.field.is_none() && !args.keep_input) {
-            // Edits name the file's vertices and a field file its faces, so with a project or a
-            // field the mesh is never remeshed by itself.
-            let t = Instant::now();
-            let opts = prepared_options(
-                &mesh,
-                settings.target_vertices,
-                prepare::DEFAULT_FEATURE_ANGLE.min(args.features.unwrap_or(f64::INFINITY)),
-            );
-            let out = isotropic_remesh(&mesh, &opts)
-                .map_err(|e| format!("{}: remeshing the input failed: {e}", mesh_path.display()))?;
-            bar.line(format!(
-                "  input remeshed ({why}); {} vertices -> {} (edge length {:.4}); --keep-input \
-                 keeps it as it is",
-                mesh.n_vertices(),
-                out.n_vertices(),
-                opts.edge_length
-            ));
-            let new_soup = crate::mesh::PolygonSoup {
-                source_polygon: (0..out.n_faces() as u32).collect(),
-                positions: out.positions().to_vec(),
-                triangles: out.faces().to_vec(),
-                ..Default::default()
-            };
-            // The remeshed mesh is valid already and is its own "file": identity maps back.
-            let r = crate::mesh::RepairReport {
-                original_vertex: (0..out.n_vertices() as u32).collect(),
-                original_face: (0..out.n_faces() as u32).collect(),
-                ..Default::default()
-            };
-            let info = PreparedOut {
-                input_vertices: soup.positions.len(),
-                input_faces: soup.triangles.len(),
-                needle_area_share: needles,
-                coarse: coarse.is_some(),
-                edge_length: opts.edge_length,
-                ms: t.elapsed().as_secs_f64() * 1e3,
-            };
-            (new_soup, out, r, Some(info))
-        } else {
-            if raw {
+    // Edits name the file's vertices and a field file its faces, so with a project or a field
+    // the mesh is never remeshed by itself.
+    let by_itself = raw && project.is_none() && args.field.is_none() && !args.keep_input;
+    let prep_clock = Instant::now();
+    let opts = prepared_options(
+        &mesh,
+        settings.target_vertices,
+        prepare::DEFAULT_FEATURE_ANGLE.min(args.features.unwrap_or(f64::INFINITY)),
+    );
+    let remeshed = if args.prepare || by_itself {
+        match isotropic_remesh(&mesh, &opts) {
+            Ok(out) => Some(out),
+            // Asked for, or too large to solve anyway: the error is the answer.
+            Err(e) if args.prepare || matches!(e, crate::mesh::MeshError::TooLarge { .. }) => {
+                return Err(
+                    format!("{}: remeshing the input failed: {e}", mesh_path.display()).into(),
+                );
+            }
+            // Remeshing by itself is a courtesy: its failure leaves the input as it is.
+            Err(e) => {
                 bar.line(format!(
-                    "  warning: the input looks like a raw tessellation ({why}): the map may \
+                    "  warning: the input looks like a raw tessellation ({why}), but remeshing it \
+                     failed ({e}); solving on the input as it is"
+                ));
+                None
+            }
+        }
+    } else {
+        None
+    };
+    let (soup, mesh, repair, prepared_input) = if let Some(out) = remeshed {
+        bar.line(format!(
+            "  input remeshed ({why}); {} vertices -> {} (edge length {:.4}); --keep-input \
+                 keeps it as it is",
+            mesh.n_vertices(),
+            out.n_vertices(),
+            opts.edge_length
+        ));
+        let new_soup = crate::mesh::PolygonSoup {
+            source_polygon: (0..out.n_faces() as u32).collect(),
+            positions: out.positions().to_vec(),
+            triangles: out.faces().to_vec(),
+            ..Default::default()
+        };
+        // The remeshed mesh is valid already and is its own "file": identity maps back.
+        let r = crate::mesh::RepairReport {
+            original_vertex: (0..out.n_vertices() as u32).collect(),
+            original_face: (0..out.n_faces() as u32).collect(),
+            ..Default::default()
+        };
+        let info = PreparedOut {
+            input_vertices: soup.positions.len(),
+            input_faces: soup.triangles.len(),
+            needle_area_share: needles,
+            coarse: coarse.is_some(),
+            edge_length: opts.edge_length,
+            ms: prep_clock.elapsed().as_secs_f64() * 1e3,
+        };
+        (new_soup, out, r, Some(info))
+    } else {
+        if raw && !by_itself {
+            bar.line(format!(
+                "  warning: the input looks like a raw tessellation ({why}): the map may \
                      fold; `quadcover prepare` remeshes it (kept as it is here: --keep-input, or \
                      a project or field file, which name its vertices and faces)"
-                ));
-            }
-            (soup, mesh, repair, None)
-        };
+            ));
+        }
+        (soup, mesh, repair, None)
+    };
     if let (Some(project), Some(pp)) = (&project, &args.project) {
         // The hash names the project's own mesh; another one given on the command line is the
         // user's choice.

@@ -153,15 +153,19 @@ pub enum ExtractError {
         total: usize,
         worst: f64,
     },
-    #[error("the parameterization covers no grid point: scale the UVs up")]
+    #[error(
+        "the parameterization covers no grid point: the grid is coarser than the surface (ask \
+         for more target vertices or a smaller grid size; for `extract`, scale the UVs up)"
+    )]
     Empty,
     #[error("cancelled")]
     Cancelled,
     #[error("the pole stars cannot be extracted: {0}")]
     Poles(String),
     #[error(
-        "the grid would have about {estimated:.3e} points (limit {limit}): the UVs are scaled far \
-         too large for this mesh (grid size too small)"
+        "the grid would have about {estimated:.3e} points (limit {limit}): the grid size is far \
+         too small for this mesh (ask for fewer target vertices or a larger grid size; for \
+         `extract`, scale the UVs down)"
     )]
     TooFine { estimated: f64, limit: usize },
 }
