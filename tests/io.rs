@@ -323,6 +323,24 @@ fn broken_truncated_off() {
     assert_contains(&msg, &["expected 6 faces", "found only 4"]);
 }
 
+/// Lines past the faces an OFF header declares are read as nothing, with a warning naming the
+/// first (they were dropped silently).
+#[test]
+fn off_lines_past_the_declared_faces_are_warned_about() {
+    let text = std::fs::read_to_string(data("ok/cube.off")).unwrap();
+    let s = read_mesh_bytes(text.as_bytes(), Format::Off).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let extra = format!("{text}3 0 1 2\n");
+    let s = read_mesh_bytes(extra.as_bytes(), Format::Off).unwrap();
+    assert_eq!(s.triangles.len(), 12);
+    let line = text.lines().count() + 1;
+    assert!(
+        s.warnings.len() == 1 && s.warnings[0].contains(&format!("line {line}")),
+        "{:?}",
+        s.warnings
+    );
+}
+
 #[test]
 fn broken_garbled_ply_header() {
     let (e, msg) = read_err("broken/garbled_header.ply");

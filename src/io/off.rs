@@ -145,5 +145,15 @@ pub fn read_off_bytes(bytes: &[u8]) -> Result<PolygonSoup, ReadError> {
         }
         builder.push_polygon(&poly, Some(line))?;
     }
-    builder.finish()
+    // Records past the counts are no part of the mesh; say so rather than drop them silently
+    // (a face appended without updating the header).
+    let rest: Vec<usize> = lines.map(|(n, _)| n).collect();
+    let mut soup = builder.finish()?;
+    if let Some(first) = rest.first() {
+        soup.warnings.push(format!(
+            "{} line(s) after the {nf} faces the header declares are ignored; first: line {first}",
+            rest.len()
+        ));
+    }
+    Ok(soup)
 }
