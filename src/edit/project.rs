@@ -93,6 +93,9 @@ impl Default for Settings {
     }
 }
 
+/// The most neighbour-averaging passes over the shape operators a setting may ask for.
+pub const MAX_CURVATURE_SMOOTHING: usize = 1000;
+
 impl Settings {
     /// Checks ranges; the message names the setting.
     pub fn validate(&self) -> Result<(), String> {
@@ -127,6 +130,14 @@ impl Settings {
         }
         if self.target_vertices == Some(0) {
             return Err("target_vertices must be positive".into());
+        }
+        // Each pass is a sweep over the mesh: a million of them ran for minutes, and past a few
+        // hundred the shape operators are averaged over the whole of most meshes anyway.
+        if self.curvature_smoothing > MAX_CURVATURE_SMOOTHING {
+            return Err(format!(
+                "curvature_smoothing = {} is out of range (at most {MAX_CURVATURE_SMOOTHING} passes)",
+                self.curvature_smoothing
+            ));
         }
         if self.scale.is_some() && self.target_vertices.is_some() {
             return Err("give target_vertices or scale, not both".into());
@@ -507,6 +518,10 @@ mod tests {
                 "{e}"
             );
         }
+        let mut slow = p.clone();
+        slow.settings.curvature_smoothing = 1_000_000;
+        let e = err(&slow.to_json());
+        assert!(e.contains("curvature_smoothing"), "{e}");
         let e = err(&json.replace("\"tau\"", "\"tua\""));
         assert!(e.contains("settings") && e.contains("tua"), "{e}");
         let e = err(&json.replace("quadcover-project", "something"));
