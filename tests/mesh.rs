@@ -180,12 +180,16 @@ fn repairable_files_load_with_warnings() {
     ok("unreferenced_vertices.obj", "unreferenced");
 }
 
-fn info(path: &Path) -> std::process::Output {
+/// Runs the command-line tool with `args`.
+fn quadcover<S: AsRef<std::ffi::OsStr>>(args: impl IntoIterator<Item = S>) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_quadcover"))
-        .arg("info")
-        .arg(path)
+        .args(args)
         .output()
-        .expect("run quadcover info")
+        .expect("run quadcover")
+}
+
+fn info(path: &Path) -> std::process::Output {
+    quadcover([Path::new("info"), path])
 }
 
 #[test]
@@ -282,13 +286,11 @@ fn info_exits_with_2_and_a_message_on_every_broken_file() {
 fn solve_names_the_file_of_every_broken_mesh() {
     let dir = tempfile::tempdir().unwrap();
     let solve = |input: &[&std::ffi::OsStr]| {
-        let out = Command::new(env!("CARGO_BIN_EXE_quadcover"))
-            .arg("solve")
-            .args(input)
-            .arg("--out")
-            .arg(dir.path().join("out.obj"))
-            .output()
-            .expect("run quadcover solve");
+        let out_obj = dir.path().join("out.obj");
+        let mut args: Vec<&std::ffi::OsStr> = vec!["solve".as_ref()];
+        args.extend(input);
+        args.extend(["--out".as_ref(), out_obj.as_os_str()]);
+        let out = quadcover(args);
         let stderr = String::from_utf8_lossy(&out.stderr).to_string();
         assert!(!stderr.contains("panicked"), "{input:?} panicked: {stderr}");
         assert_eq!(out.status.code(), Some(2), "{input:?}: {stderr}");
@@ -331,15 +333,15 @@ fn solve_names_the_file_of_every_broken_mesh() {
 fn solve_keeps_the_input_when_remeshing_it_by_itself_fails() {
     let input = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/sliver_tjunction.obj");
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_quadcover"))
-        .arg("solve")
-        .arg(&input)
-        .arg("--out")
-        .arg(dir.path().join("uv.obj"))
-        .arg("--remesh")
-        .arg(dir.path().join("quads.obj"))
-        .output()
-        .expect("run quadcover solve");
+    let (uv, quads) = (dir.path().join("uv.obj"), dir.path().join("quads.obj"));
+    let out = quadcover([
+        "solve".as_ref(),
+        input.as_os_str(),
+        "--out".as_ref(),
+        uv.as_os_str(),
+        "--remesh".as_ref(),
+        quads.as_os_str(),
+    ]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     assert!(dir.path().join("quads.obj").exists(), "{stderr}");
@@ -356,13 +358,13 @@ fn solve_keeps_the_input_when_remeshing_it_by_itself_fails() {
 fn extract_names_a_wrong_format_and_a_bad_texture_coordinate() {
     let dir = tempfile::tempdir().unwrap();
     let extract = |input: &Path| {
-        let out = Command::new(env!("CARGO_BIN_EXE_quadcover"))
-            .arg("extract")
-            .arg(input)
-            .arg("--out")
-            .arg(dir.path().join("quads.obj"))
-            .output()
-            .expect("run quadcover extract");
+        let quads = dir.path().join("quads.obj");
+        let out = quadcover([
+            "extract".as_ref(),
+            input.as_os_str(),
+            "--out".as_ref(),
+            quads.as_os_str(),
+        ]);
         assert_eq!(out.status.code(), Some(2));
         String::from_utf8_lossy(&out.stderr).to_string()
     };
@@ -392,14 +394,15 @@ fn solve_refuses_option_values_that_do_nothing() {
         (&["--features", "0"][..], "--features"),
         (&["--dual", "--remesh", "tris.obj"][..], "--symmetry 6"),
     ] {
-        let out = Command::new(env!("CARGO_BIN_EXE_quadcover"))
-            .arg("solve")
-            .arg(&cube)
-            .arg("--out")
-            .arg(dir.path().join("uv.obj"))
-            .args(extra)
-            .output()
-            .expect("run quadcover solve");
+        let uv = dir.path().join("uv.obj");
+        let mut args: Vec<&std::ffi::OsStr> = vec![
+            "solve".as_ref(),
+            cube.as_os_str(),
+            "--out".as_ref(),
+            uv.as_os_str(),
+        ];
+        args.extend(extra.iter().map(std::ffi::OsStr::new));
+        let out = quadcover(args);
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{extra:?}: {stderr}");
         assert!(stderr.contains(needle), "{extra:?}: {stderr}");
