@@ -341,6 +341,37 @@ fn off_lines_past_the_declared_faces_are_warned_about() {
     );
 }
 
+/// OBJ records of no kind the reader knows are warned about, naming keyword, count and first
+/// line; free-form geometry (a NURBS patch is no polygon face) says so; normals, groups,
+/// materials and comments are read past silently.
+#[test]
+fn unknown_obj_records_are_warned_about() {
+    let text = std::fs::read_to_string(data("ok/cube.obj")).unwrap();
+    let quiet =
+        format!("# made by hand\nmtllib a.mtl\no cube\ng side\ns 1\nusemtl red\nvn 0 0 1\n{text}");
+    let s = read_mesh_bytes(quiet.as_bytes(), Format::Obj).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let head = text.lines().count();
+    let odd = format!("{text}vv 1 2 3\nvv 4 5 6\nfoo\n");
+    let s = read_mesh_bytes(odd.as_bytes(), Format::Obj).unwrap();
+    assert_eq!(s.triangles.len(), 12);
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    let w = &s.warnings[0];
+    for part in [
+        format!("`vv` ×2 (first at line {})", head + 1),
+        format!("`foo` ×1 (first at line {})", head + 3),
+    ] {
+        assert!(w.contains(&part), "{w}");
+    }
+    let nurbs = format!("{text}cstype bspline\ndeg 3\ncurv 0 1 1 2 3 4\nend\n");
+    let s = read_mesh_bytes(nurbs.as_bytes(), Format::Obj).unwrap();
+    assert!(
+        s.warnings.len() == 1 && s.warnings[0].contains("free-form"),
+        "{:?}",
+        s.warnings
+    );
+}
+
 #[test]
 fn broken_garbled_ply_header() {
     let (e, msg) = read_err("broken/garbled_header.ply");

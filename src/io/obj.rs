@@ -1,5 +1,8 @@
-//! Wavefront OBJ reader: `v`, `vt`, `f` and `l` records; everything else (`vn`, `o`, `g`, `s`,
-//! `usemtl`, `mtllib`, `p`, comments) is ignored.
+//! Wavefront OBJ reader: `v`, `vt`, `f` and `l` records; the records of normals, groups,
+//! materials, points and display attributes ([`IGNORED`]) and comments are ignored. Any other
+//! record is ignored with a warning naming its keyword, count and first line: free-form
+//! geometry ([`FREE_FORM`]: a NURBS surface is no mesh we can read) and keywords OBJ does not
+//! have (a typo, or another format's text), so that what is lost is never lost silently.
 //!
 //! Choices:
 //! - Hand-written rather than `tobj`: tobj (without its `use_f64` feature) stores coordinates as
@@ -19,6 +22,35 @@ use glam::DVec3;
 
 use super::{ReadError, SoupBuilder, check_index, parse_f64, shorten, text_lines};
 use crate::mesh::PolygonSoup;
+
+/// Records that carry nothing a triangle mesh needs: read past without a word.
+pub const IGNORED: &[&str] = &[
+    "vn",
+    "vp",
+    "o",
+    "g",
+    "s",
+    "mg",
+    "p",
+    "usemtl",
+    "mtllib",
+    "usemap",
+    "maplib",
+    "lod",
+    "bevel",
+    "c_interp",
+    "d_interp",
+    "shadow_obj",
+    "trace_obj",
+    "ctech",
+    "stech",
+];
+
+/// Free-form curve and surface records: geometry this reader does not tessellate.
+pub const FREE_FORM: &[&str] = &[
+    "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm", "trim", "hole", "scrv", "sp",
+    "end", "con",
+];
 
 /// Everything read from an OBJ file.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -68,6 +100,8 @@ pub fn read_obj_bytes(bytes: &[u8]) -> Result<ObjData, ReadError> {
     let mut corners: Vec<Corner> = Vec::new();
     let mut faces: Vec<Record> = Vec::new();
     let mut lines: Vec<Record> = Vec::new();
+    // Keywords read past with a warning: count and first line.
+    let mut skipped: std::collections::HashMap<String, (usize, usize)> = Default::default();
 
     for (line, text) in text_lines(bytes) {
         let mut words = text.split_whitespace();
@@ -117,7 +151,13 @@ pub fn read_obj_bytes(bytes: &[u8]) -> Result<ObjData, ReadError> {
                     lines.push(rec);
                 }
             }
-            _ => {}
+            _ if key.starts_with('#') || IGNORED.contains(&key) => {}
+            _ => {
+                skipped
+                    .entry(shorten(key).into_owned())
+                    .or_insert((0, line))
+                    .0 += 1
+            }
         }
     }
 
@@ -229,12 +269,50 @@ pub fn read_obj_bytes(bytes: &[u8]) -> Result<ObjData, ReadError> {
         }
         polylines.push(pl);
     }
+    let mut soup = builder.finish()?;
+    let mut skipped: Vec<(String, usize, usize)> = skipped
+        .into_iter()
+        .map(|(k, (n, line))| (k, n, line))
+        .collect();
+    skipped.sort_by_key(|&(_, _, line)| line);
+    soup.warnings.extend(skipped_warning(&skipped));
     Ok(ObjData {
-        soup: builder.finish()?,
+        soup,
         corner_uvs: with_uvs.then_some(corner_uvs),
         polylines,
         pole_quads,
     })
+}
+
+/// The warning for records read past that may have carried geometry (keyword, count, first
+/// line, in the order of first lines): free-form geometry named first, as it is the likelier
+/// loss.
+fn skipped_warning(skipped: &[(String, usize, usize)]) -> Option<String> {
+    if skipped.is_empty() {
+        return None;
+    }
+    const LISTED: usize = 5;
+    let mut list = skipped
+        .iter()
+        .take(LISTED)
+        .map(|(k, n, line)| format!("`{k}` ×{n} (first at line {line})"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    if skipped.len() > LISTED {
+        list += &format!(" and {} more kinds", skipped.len() - LISTED);
+    }
+    Some(
+        if skipped
+            .iter()
+            .any(|(k, _, _)| FREE_FORM.contains(&k.as_str()))
+        {
+            format!(
+                "free-form curves or surfaces are not read, only polygon faces (tessellate them in the modelling tool first); records ignored: {list}"
+            )
+        } else {
+            format!("records of no OBJ kind this reader knows are ignored: {list}")
+        },
+    )
 }
 
 /// Parse `v`, `v/vt`, `v//vn` or `v/vt/vn`, resolving negative (relative) indices against the
