@@ -1172,6 +1172,67 @@ fn singularities_beside_prism_corners_move_onto_them() {
     }
 }
 
+/// A regular tetrahedron with features at 40° (N = 4): each apex has three corners of 60°
+/// between its creases, and each must become a lattice corner of 90° (0° would run two creases
+/// along one line), which makes every apex a +1/4 and asks for a +1/4 inside each face:
+/// eight +1/4 in all. Above the acute corners' 46.8° the smoothing's smallest turn was left to
+/// choose, and at most densities its global choice closed one corner of every apex (an apex
+/// of +1/2 with ±1/4 pairs round it; 28 singularities and 25–36 folded faces after the repair
+/// in 14 of 20 maps of remeshed tetrahedra, 2026-12-07). Corners under 0.9 of 2π/N are held
+/// to 2π/N now, with the faces within a cell of an interior apex
+/// (`constraint::HELD_FRACTION`).
+#[test]
+fn a_tetrahedron_s_corners_of_60_degrees_open_to_90() {
+    use glam::DVec3;
+    let corners = [
+        DVec3::new(1.0, 1.0, 1.0),
+        DVec3::new(1.0, -1.0, -1.0),
+        DVec3::new(-1.0, 1.0, -1.0),
+        DVec3::new(-1.0, -1.0, 1.0),
+    ];
+    let raw = TriMesh::from_triangles(
+        corners.to_vec(),
+        vec![[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]],
+    )
+    .unwrap();
+    for (vertices, target) in [(3000, 2000), (8000, 3000)] {
+        use quadcover::mesh::isotropic::{IsotropicOptions, isotropic_remesh};
+        let what = format!("tetrahedron of {vertices} vertices at {target} target vertices");
+        let opts = IsotropicOptions::for_vertices(&raw, vertices, 35.0);
+        let mesh = std::sync::Arc::new(isotropic_remesh(&raw, &opts).unwrap());
+        let settings = Settings {
+            target_vertices: Some(target),
+            ..Settings::default()
+        };
+        let base = Base::for_mesh(mesh.clone(), settings).unwrap();
+        let (state, solved) = replay_solve(&base, &[Edit::DetectFeatures { angle_deg: 40.0 }]);
+        check_geometric(&base, &state, &solved);
+        let p = &solved.param;
+        let ks: Vec<f64> = p.singularities.iter().map(|s| s.index * 4.0).collect();
+        eprintln!(
+            "{what}: {} folds before the repair, {} after, singularities {ks:?}",
+            p.flipped_faces_before_repair, p.flipped_faces
+        );
+        assert_eq!(ks, vec![1.0; 8], "{what}");
+        for c in corners {
+            let at = mesh
+                .positions()
+                .iter()
+                .position(|q| (*q - c).length() < 1e-9)
+                .expect("the remesh keeps the corners");
+            assert!(
+                p.singularities.iter().any(|s| s.vertex == at),
+                "{what}: no singularity at the apex {c}"
+            );
+        }
+        assert_eq!(p.flipped_faces, 0, "{what}");
+        let (remesh, share, _) = remesh_along_curves(&base, &state, &solved, &what);
+        remesh_checks::assert_manifold(&remesh, &what);
+        assert_eq!(remesh.patched_places, 0, "{what}");
+        assert!(share > 0.99, "{what}: {share}");
+    }
+}
+
 /// A T-shaped prism (a 4 × 1 bar on a 1 × 3 stem, 1 thick) with features at 40°, N = 6: the
 /// curvature smoothing carried the creases' bend, 30° off their line family for six
 /// directions, into the flat faces beside them, and the design turned the field by +30° on

@@ -779,7 +779,11 @@ impl Base {
     /// three lattice corners of 60°), one of the other sign only if the junction's index then
     /// lies no farther from the defect, ties within [`JUNCTION_TIE`] (on fandisk a +1/6 beside
     /// a corner with −1/6 whose defect is −1.33 stays: moved, the corner's index 0, 11 faces
-    /// there folded). Only at corners with an angle defect of [`JUNCTION_CONE`] or more. Acute
+    /// there folded). Never beyond N less the junction's number of sectors: each sector
+    /// opens to a lattice corner of at least 2π/N, and a move past that collapses one (a
+    /// tetrahedron's corner, N = 4, three sectors of 60°, has a defect of two quarter turns and
+    /// would take a second +1/4; it can carry one). Only at corners with an angle defect of
+    /// [`JUNCTION_CONE`] or more. Acute
     /// apexes are left to [`Self::off_curves_in_wedges`]: their wedge's singularity belongs
     /// inside it. Not with N = 2 (see [`Self::snap_to_curves`]).
     fn onto_junctions(&self, mut state: EditState, acute_apexes: &[usize]) -> EditState {
@@ -816,7 +820,10 @@ impl Base {
                 let same_sign = k as f64 * cone > 0.0;
                 let no_farther = (f64::from(at_j + k) - cone).abs()
                     <= (f64::from(at_j) - cone).abs() + JUNCTION_TIE;
-                if !same_sign && !no_farther {
+                // Each of the junction's sectors opens to a lattice corner of one step or
+                // more, so its index is at most N less one per sector.
+                let most = i64::from(self.settings.symmetry) - i64::from(curve_degree[j]);
+                if (!same_sign && !no_farther) || i64::from(at_j + k) > most {
                     continue;
                 }
                 if let Ok(mv) = self.plan(&state, &mut search, p, j) {
