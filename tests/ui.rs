@@ -1820,6 +1820,41 @@ fn the_folds_overlay_counts_and_draws_the_folded_faces() {
     }
 }
 
+/// *Curvature smoothing* is the solve setting `curvature_smoothing` (until 2026-12-07 only a
+/// project or `--curvature-smoothing` could set it): dragging its slider to the right end
+/// raises the draft, and applying re-solves with it.
+#[test]
+fn curvature_smoothing_is_a_slider_of_the_solve_settings() {
+    let (_dir, mut h) = editor_on("spot.obj", true);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    assert_eq!(h.state().document.settings.curvature_smoothing, 5);
+    let rail = h
+        .get_by_role_and_label(egui::accesskit::Role::Slider, "Curvature smoothing")
+        .rect();
+    let (from, to) = (rail.center(), rail.right_center() + egui::vec2(40.0, 0.0));
+    press(&mut h, from, true);
+    h.step();
+    for i in 1..=6 {
+        h.hover_at(from + (to - from) * (i as f32 / 6.0));
+        h.step();
+    }
+    press(&mut h, to, false);
+    h.run_steps(2);
+    let dragged = h.state().settings_draft.curvature_smoothing;
+    assert_eq!(
+        dragged,
+        quadcover::edit::project::MAX_CURVATURE_SMOOTHING,
+        "the draft after the drag"
+    );
+    h.get_by_label("Apply settings").click();
+    h.step();
+    settle(&mut h);
+    assert!(h.state().error.is_none(), "{:?}", h.state().error);
+    let base = h.state().document.edit_base.clone().unwrap();
+    assert_eq!(base.settings().curvature_smoothing, dragged);
+    assert!(h.state().document.solve_current());
+}
+
 /// *Untangle folds* is `!no_untangle` of the solve settings: unchecking it and applying re-solves
 /// without the repair (the folds are the global step's and the summary says so); checking it
 /// again repairs them, and the summary gives the count before the repair and its time.

@@ -250,6 +250,19 @@ impl EditorApp {
         )
         .on_hover_text("Alignment to curvature directions against smoothness; 0 = smoothest");
         ui.add(egui::Slider::new(&mut d.reliable_fraction, 0.0..=1.0).text("Reliable fraction"));
+        ui.add(
+            egui::Slider::new(
+                &mut d.curvature_smoothing,
+                0..=crate::edit::project::MAX_CURVATURE_SMOOTHING,
+            )
+            .logarithmic(true)
+            .text("Curvature smoothing"),
+        )
+        .on_hover_text(
+            "Neighbour-averaging passes over the shape operators before the curvature \
+             directions are taken (default 5; 0 = eq. 3.2 as is). More passes, fewer \
+             singularities on noisy scans and on low-poly models' facets",
+        );
         ui.add_enabled(
             d.symmetry == 4,
             egui::Checkbox::new(&mut d.pure_quad, "Pure quad (singularities on Z²)"),
