@@ -623,7 +623,8 @@ struct Sector {
 
 /// The lattice corner (a multiple of `step` = 2π/N) each sector is held to, or None where the
 /// smoothing's smallest turn is left to choose. Sectors under [`HELD_FRACTION`] of a step
-/// (the acute ones, [`ACUTE_FRACTION`], among them) take one step. A boundary sector halfway between two lattice corners (within [`AMBIGUOUS_BAND`] of
+/// (the acute ones, [`ACUTE_FRACTION`], among them) take one step. A boundary sector halfway
+/// between two lattice corners (within [`AMBIGUOUS_BAND`] of
 /// (j + ½) step: 90° for N = 6, 135° for N = 4) is a coin toss for the smoothing too (flat,
 /// the relaxed field of a square's rim, N = 6, is real: +1 along two sides, −1 along the other
 /// two, zero on the diagonals), and tossed independently the corners of one loop add up to

@@ -783,9 +783,9 @@ impl Base {
     /// opens to a lattice corner of at least 2π/N, and a move past that collapses one (a
     /// tetrahedron's corner, N = 4, three sectors of 60°, has a defect of two quarter turns and
     /// would take a second +1/4; it can carry one). Only at corners with an angle defect of
-    /// [`JUNCTION_CONE`] or more. Acute
-    /// apexes are left to [`Self::off_curves_in_wedges`]: their wedge's singularity belongs
-    /// inside it. Not with N = 2 (see [`Self::snap_to_curves`]).
+    /// [`JUNCTION_CONE`] or more. Acute apexes are left to [`Self::off_curves_in_wedges`]:
+    /// their wedge's singularity belongs inside it. Not with N = 2 (see
+    /// [`Self::snap_to_curves`]).
     fn onto_junctions(&self, mut state: EditState, acute_apexes: &[usize]) -> EditState {
         if self.settings.symmetry == 2 {
             return state;

@@ -285,8 +285,8 @@ pub fn read_obj_bytes(bytes: &[u8]) -> Result<ObjData, ReadError> {
 }
 
 /// The warning for records read past that may have carried geometry (keyword, count, first
-/// line, in the order of first lines): free-form geometry named first, as it is the likelier
-/// loss.
+/// line, in the order of first lines, the first few): said to be free-form geometry when any
+/// of them is, the likelier loss.
 fn skipped_warning(skipped: &[(String, usize, usize)]) -> Option<String> {
     if skipped.is_empty() {
         return None;
