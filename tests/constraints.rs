@@ -1233,6 +1233,55 @@ fn a_tetrahedron_s_corners_of_60_degrees_open_to_90() {
     }
 }
 
+/// A hexagonal pyramid with features at 40° (N = 4): its apex has six corners of 37° between
+/// the creases, each acute and held to a lattice corner of 90°, so the apex is a cone of 540°,
+/// a −1/2. Remeshed, the apex has one face per corner, and a single face's frame lies halfway
+/// between its creases' lattice directions; the nearest turn across a crease between two such
+/// faces is the wrong one (the corners add up to less than 90°), and the design made the apex
+/// +3/4 (2026-12-07). The rotations across those creases are prescribed now
+/// (`constraint::acute_corners`' rotations). What the map then does is not asserted: the
+/// side faces' +1/4 sit beside the apex and it folds (`docs/untangling.md`).
+#[test]
+fn a_hexagonal_pyramid_s_apex_is_the_cone_its_held_corners_make() {
+    use glam::DVec3;
+    use quadcover::mesh::isotropic::{IsotropicOptions, isotropic_remesh};
+    let mut positions: Vec<DVec3> = (0..6)
+        .map(|k| {
+            let a = std::f64::consts::TAU * k as f64 / 6.0;
+            DVec3::new(a.cos(), a.sin(), 0.0)
+        })
+        .collect();
+    positions.push(DVec3::new(0.0, 0.0, 1.2));
+    let mut faces: Vec<[u32; 3]> = (0..6).map(|k| [k, (k + 1) % 6, 6]).collect();
+    faces.extend([[0, 5, 4], [0, 4, 3], [0, 3, 2], [0, 2, 1]]);
+    let raw = TriMesh::from_triangles(positions, faces).unwrap();
+    let opts = IsotropicOptions::for_vertices(&raw, 3000, 35.0);
+    let mesh = std::sync::Arc::new(isotropic_remesh(&raw, &opts).unwrap());
+    let apex = mesh
+        .positions()
+        .iter()
+        .position(|q| (*q - DVec3::new(0.0, 0.0, 1.2)).length() < 1e-9)
+        .expect("the remesh keeps the apex");
+    let settings = Settings {
+        target_vertices: Some(3000),
+        ..Settings::default()
+    };
+    let base = Base::for_mesh(mesh, settings).unwrap();
+    let r = base
+        .replay(
+            &[Edit::DetectFeatures { angle_deg: 40.0 }],
+            &quadcover::edit::never,
+        )
+        .unwrap();
+    let state = r.last();
+    assert_eq!(state.curves.len(), 12);
+    assert_eq!(
+        state.singularities.get(&apex),
+        Some(&-2),
+        "the apex's index in quarter turns"
+    );
+}
+
 /// A T-shaped prism (a 4 × 1 bar on a 1 × 3 stem, 1 thick) with features at 40°, N = 6: the
 /// curvature smoothing carried the creases' bend, 30° off their line family for six
 /// directions, into the flat faces beside them, and the design turned the field by +30° on

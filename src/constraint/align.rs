@@ -139,6 +139,7 @@ pub fn acute_corners<'a>(
     let step = 2.0 * std::f64::consts::PI / n as f64;
     let (sectors, curve_of) = curve_sectors(mesh, curves);
     let lattice = lattice_corners(mesh, &sectors, step);
+    out.rotations = crease_rotations(mesh, &sectors, &lattice, step);
     for (s, corner) in sectors.iter().zip(lattice) {
         let Some(corner) = corner else { continue };
         let acute = s.alpha < step * ACUTE_FRACTION;
@@ -166,6 +167,57 @@ pub fn acute_corners<'a>(
         }
     }
     out.apexes.dedup();
+    out
+}
+
+/// The frame's rotation across each curve edge between two held sectors ([`lattice_corners`])
+/// of one apex, from the last face of the sector before it to the first face of the one after
+/// it (counter-clockwise about the apex): what the two sectors' turning frames
+/// ([`hold_sector`]) ask for at those faces' middles. A held face spans its sector's angle at
+/// most, and its frame lies between its two curves' lattice directions; across a crease
+/// between two such faces the nearest turn is the wrong one when the two corners add up to
+/// less than 2π/N (a hexagonal pyramid's apex, six corners of 37°, one face each: the nearest
+/// turns made the apex +3/4 instead of −1/2). Such rotations, more than half a step
+/// (`step`), are prescribed (`FieldParams::fixed_rotations`); the others are the nearest turn
+/// already and are left to the rounding.
+fn crease_rotations(
+    mesh: &TriMesh,
+    sectors: &[Sector],
+    lattice: &[Option<f64>],
+    step: f64,
+) -> Vec<(u32, u32, f64)> {
+    let held: Vec<(&Sector, f64)> = sectors
+        .iter()
+        .zip(lattice)
+        .filter_map(|(s, c)| c.map(|c| (s, c)))
+        .collect();
+    let mut out = Vec::new();
+    for &(s, c) in &held {
+        let Some(&(t, c2)) = held
+            .iter()
+            .find(|(t, _)| t.apex == s.apex && t.first == s.last)
+        else {
+            continue;
+        };
+        let (Some(&last), Some(&first)) = (s.faces.last(), t.faces.first()) else {
+            continue;
+        };
+        // The frame's angle at a face's middle, from its sector's first curve (`hold_sector`).
+        let last_angle = mesh.corner_angle(s.fan[last]);
+        let before = (s.alpha - last_angle / 2.0) * (s.alpha - c) / s.alpha;
+        let after = mesh.corner_angle(t.fan[first]) / 2.0 * (t.alpha - c2) / t.alpha;
+        // From the first sector's first curve: its corner α, less the lattice corner c that
+        // makes the frame at its end the next one's start.
+        let rotation = s.alpha + after - before - c;
+        if rotation.abs() <= step / 2.0 {
+            continue;
+        }
+        out.push((
+            mesh.face_of(s.fan[last]) as u32,
+            mesh.face_of(t.fan[first]) as u32,
+            rotation,
+        ));
+    }
     out
 }
 
@@ -735,6 +787,9 @@ pub struct AcuteCorners {
     pub apexes: Vec<usize>,
     /// Per corner its apex and the faces of its wedge (the apex's faces between the two curves).
     pub wedges: Vec<(usize, Vec<usize>)>,
+    /// Rotations to prescribe across creases between held corners ([`crease_rotations`]):
+    /// first face, second face, angle.
+    pub rotations: Vec<(u32, u32, f64)>,
 }
 
 #[cfg(test)]
@@ -828,6 +883,38 @@ mod tests {
         // A corner of 100° is none either.
         let c = curve(1, &[0, 4], CurveKind::Geometric);
         assert!(acute_corners(&mesh, [&a, &c], 4, 0.0).alignments.is_empty());
+    }
+
+    #[test]
+    fn a_crease_between_two_held_single_face_corners_gets_its_rotation() {
+        // Curves leave vertex 0 at 0°, 20° and 40°: two corners of 20°, one face each, both
+        // held to 90°. At their faces' middles the frames are (10° − 90°)/2 turned: −35° from
+        // the first curve and −35° from the second, so across the crease at 20° the frame
+        // rotates by 20° − 35° + 35° − 90° = −70° (the nearest turn would say +20°).
+        let mesh = flat_fan();
+        let a = curve(0, &[1, 0], CurveKind::Geometric);
+        let b = curve(1, &[0, 2], CurveKind::Geometric);
+        let c = curve(2, &[0, 3], CurveKind::Geometric);
+        let found = acute_corners(&mesh, [&a, &b, &c], 4, 0.0);
+        assert_eq!(found.rotations.len(), 1, "{:?}", found.rotations);
+        let (f, g, rotation) = found.rotations[0];
+        let (f, g) = (mesh.face(f as usize), mesh.face(g as usize));
+        assert!(f.contains(&1) && f.contains(&2), "{f:?}");
+        assert!(g.contains(&2) && g.contains(&3), "{g:?}");
+        assert!(
+            (rotation.to_degrees() + 70.0).abs() < 1e-9,
+            "{}",
+            rotation.to_degrees()
+        );
+        // Two corners of 40° and 60° (0°, 40°, 100°): two faces and one, their crease's
+        // rotation within half a step, which the nearest turn gets right: none prescribed.
+        let d = curve(1, &[0, 3], CurveKind::Geometric);
+        let e = curve(2, &[0, 4], CurveKind::Geometric);
+        assert!(
+            acute_corners(&mesh, [&a, &d, &e], 4, 0.0)
+                .rotations
+                .is_empty()
+        );
     }
 
     #[test]

@@ -566,6 +566,7 @@ impl Base {
                 boundary_aligned: Some(Arc::new(along_boundary)),
                 rim_aligned: Some(rims.clone()),
                 kept_singular: Some(Arc::new(acute.apexes.clone())),
+                fixed_rotations: Some(Arc::new(acute.rotations.clone())),
                 ..self.settings.field_params()
             };
             let designed = |params: &crate::field::FieldParams, state: EditState| {

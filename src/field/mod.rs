@@ -235,6 +235,13 @@ pub struct FieldParams {
     /// target vertices: 5 folded faces; 0 with the pair kept, as at the default density).
     #[serde(skip)]
     pub kept_singular: Option<std::sync::Arc<Vec<usize>>>,
+    /// Frame rotations prescribed between two adjacent faces (first face, second face, angle in
+    /// radians from the first's frame to the second's across their shared edge): where
+    /// `constraint::acute_corners` holds two corners meeting at a crease with one face each,
+    /// the nearest turn across the crease is the wrong one ([`smoothing::SmoothInput`]'s
+    /// `fixed_rotations`).
+    #[serde(skip)]
+    pub fixed_rotations: Option<std::sync::Arc<Vec<(u32, u32, f64)>>>,
     /// Read the curvature guidance from the unsmoothed shape operators (eq. 3.2 as is), the
     /// density from the smoothed ones (`curvature_smoothing`): a design whose hexagonal field
     /// changes line family along a sharp crease is made again so (`edit::families`), since the
@@ -272,6 +279,7 @@ impl Default for FieldParams {
             boundary_aligned: None,
             rim_aligned: None,
             kept_singular: None,
+            fixed_rotations: None,
             raw_guidance: false,
         }
     }
@@ -553,6 +561,22 @@ fn field_with_analysis<T: Send>(
         Some(layout) => layout,
         None => layout()?,
     };
+    // The prescribed rotations per edge, oriented from the edge's first face to its second.
+    let fixed_rotations: Vec<(usize, f64)> = params
+        .fixed_rotations
+        .iter()
+        .flat_map(|list| list.iter())
+        .filter_map(|&(a, b, rotation)| {
+            (3 * a as usize..3 * a as usize + 3).find_map(|h| {
+                let e = mesh.edge(h);
+                match tr.faces[e] {
+                    [f0, f1] if f0 == a && f1 == b => Some((e, rotation)),
+                    [f0, f1] if f0 == b && f1 == a => Some((e, -rotation)),
+                    _ => None,
+                }
+            })
+        })
+        .collect();
     let sm = smoothing::smooth(&smoothing::SmoothInput {
         n,
         transport: &tr,
@@ -565,6 +589,7 @@ fn field_with_analysis<T: Send>(
         analysis: Some(analysis),
         layout: Some(&layout),
         keep_system: params.keep_system,
+        fixed_rotations: &fixed_rotations,
     })?;
     timings.extend(sm.timings.iter().cloned());
     clock = Instant::now();

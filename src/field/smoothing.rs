@@ -90,6 +90,12 @@ pub struct SmoothInput<'a> {
     /// Keep the factored fixed-matching system in [`SmoothOutput::system`], for re-solves with
     /// other matchings and released weights (singularity edits, sec. 3.3).
     pub keep_system: bool,
+    /// Edges whose turn is not the nearest but the one that rotates the frame by the given
+    /// angle from the edge's first face to its second (within half a step): the creases
+    /// between corners that `constraint::acute_corners` holds with one face each, across which
+    /// the nearest turn is the wrong one. Kept by the rounding passes, as the cancellation's
+    /// are.
+    pub fixed_rotations: &'a [(usize, f64)],
 }
 
 /// Where a value of a dual system comes from: the diagonal of a column, or one side of an edge's
@@ -622,12 +628,20 @@ fn smooth_releasing_by(inp: &SmoothInput, release: Release) -> Result<SmoothOutp
         let w_before = &w;
         let mut w = w.clone();
         let mut pinned = vec![false; r.len()];
+        for &(e, rotation) in inp.fixed_rotations {
+            let [f0, f1] = tr.faces[e];
+            if f1 != NO_FACE {
+                let d = relaxed[f1 as usize] - relaxed[f0 as usize] - tr.kappa[e] - rotation;
+                r[e] = (d / step).round() as i64;
+                pinned[e] = true;
+            }
+        }
         let mut released = Vec::new();
         if let Some(adjust) = inp.adjust_turns
             && let Some((adjusted, faces)) = adjust(&relaxed, &r)
         {
             for (e, (a, b)) in adjusted.iter().zip(&r).enumerate() {
-                pinned[e] = a != b;
+                pinned[e] |= a != b;
             }
             r = adjusted;
             for f in faces {
@@ -770,6 +784,7 @@ pub fn relaxed_z(
         analysis: None,
         layout: Some(layout),
         keep_system: false,
+        fixed_rotations: &[],
     };
     let (matrix, rhs) = relaxed_complex_system(&inp, w, &anchor, layout)?;
     let hierarchy = Multigrid::new(&matrix)?;
@@ -1227,6 +1242,7 @@ mod tests {
             analysis: None,
             layout: None,
             keep_system: true,
+            fixed_rotations: &[],
         };
         let down = smooth_releasing_by(&input, Release::Downdate).unwrap();
         let refactored = smooth_releasing_by(&input, Release::Refactor).unwrap();
