@@ -888,9 +888,10 @@ mod tests {
     #[test]
     fn a_crease_between_two_held_single_face_corners_gets_its_rotation() {
         // Curves leave vertex 0 at 0°, 20° and 40°: two corners of 20°, one face each, both
-        // held to 90°. At their faces' middles the frames are (10° − 90°)/2 turned: −35° from
-        // the first curve and −35° from the second, so across the crease at 20° the frame
-        // rotates by 20° − 35° + 35° − 90° = −70° (the nearest turn would say +20°).
+        // held to 90°. At their faces' middles (10° into each corner) the frames are turned by
+        // 10° × (20° − 90°) / 20° = −35°, from the first curve and from the second, so across
+        // the crease at 20° the frame rotates by 20° − 35° + 35° − 90° = −70° (the nearest
+        // turn would say +20°).
         let mesh = flat_fan();
         let a = curve(0, &[1, 0], CurveKind::Geometric);
         let b = curve(1, &[0, 2], CurveKind::Geometric);
