@@ -1184,6 +1184,20 @@ impl Base {
         .map_err(|e| EditError::Param(e.to_string()))
     }
 
+    /// [`Base::curl`] with the local step's curl*-free frames (`param::curl_free`).
+    pub fn curl_free(&self, state: &EditState) -> Result<(f64, Vec<[glam::DVec3; 2]>), EditError> {
+        let theta = self.angles(state)?;
+        let matchings = reduce_matchings(&self.tr, &state.turns, self.settings.symmetry);
+        crate::param::curl_free(
+            &self.mesh,
+            self.settings.symmetry as usize,
+            &matchings,
+            &self.frames(&theta),
+            Some(&self.analysis),
+        )
+        .map_err(|e| EditError::Param(e.to_string()))
+    }
+
     /// E_smooth and E_align of a state's angles.
     fn energies_of(&self, state: &EditState, theta: &[f64]) -> (f64, f64) {
         let step = std::f64::consts::TAU / self.settings.symmetry as f64;

@@ -11,6 +11,7 @@
 
 mod base;
 mod curves;
+mod drift;
 mod families;
 mod moves;
 pub mod project;

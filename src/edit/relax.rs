@@ -139,6 +139,19 @@ pub(crate) fn relax(
                 }
             }
         }
+        // Global moves down the map's log-scale, which the patches above cannot see.
+        let drifted = super::drift::drift(
+            base,
+            &mut best,
+            &mut best_curl,
+            &scratch.pinned,
+            &mut scratch.search,
+            cancel,
+        )?;
+        if drifted > 0 {
+            moves += drifted;
+            improved = true;
+        }
         // Merge close pairs, nearest first, each kept only when it lowers the curl.
         let mut merged = false;
         if radius > 0.0 {

@@ -72,6 +72,55 @@ pub fn disc(r: f64, n: usize) -> TriMesh {
     m
 }
 
+/// A flat disc of radius `r` made of concentric rings, ring i (1..=rings) with 6i vertices
+/// around one centre vertex: a round rim without the grid mapping's four corners ([`disc`] has
+/// fans of flat triangles where the square's corners were).
+pub fn round_disc(r: f64, rings: usize) -> TriMesh {
+    let mut p = vec![DVec3::ZERO];
+    let mut start = vec![0usize];
+    for i in 1..=rings {
+        start.push(p.len());
+        let n = 6 * i;
+        // Odd rings turned by half a step, so that consecutive rings interleave.
+        let offset = if i % 2 == 1 { 0.5 } else { 0.0 };
+        for k in 0..n {
+            let a = std::f64::consts::TAU * (k as f64 + offset) / n as f64;
+            p.push(DVec3::new(a.cos(), a.sin(), 0.0) * (r * i as f64 / rings as f64));
+        }
+    }
+    let mut f = Vec::new();
+    for i in 1..=rings {
+        let (inner, outer) = (6 * (i - 1), 6 * i);
+        let angle = |ring: usize, k: usize| {
+            let n = 6 * ring;
+            let offset = if ring % 2 == 1 { 0.5 } else { 0.0 };
+            (k as f64 + offset) / n.max(1) as f64
+        };
+        let at = |ring: usize, k: usize| {
+            let n = (6 * ring).max(1);
+            (start[ring] + k % n) as u32
+        };
+        // Zip the two rings together by angle (counter-clockwise triangles).
+        let (mut a, mut b) = (0usize, 0usize);
+        while a < inner.max(1) && inner > 0 || b < outer {
+            let next_inner = if inner == 0 {
+                f64::INFINITY
+            } else {
+                angle(i - 1, a + 1)
+            };
+            let next_outer = angle(i, b + 1);
+            if b < outer && (a >= inner || next_outer <= next_inner) {
+                f.push([at(i - 1, a), at(i, b), at(i, b + 1)]);
+                b += 1;
+            } else {
+                f.push([at(i - 1, a), at(i, b), at(i - 1, a + 1)]);
+                a += 1;
+            }
+        }
+    }
+    build(p, f)
+}
+
 /// An open cylinder of radius `r` and height `h` around the z axis (`nu` around, `nv` up).
 pub fn cylinder(r: f64, h: f64, nu: usize, nv: usize) -> TriMesh {
     let mut p = Vec::new();

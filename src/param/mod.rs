@@ -1344,6 +1344,19 @@ pub fn curl(
     frames: &[[DVec3; 2]],
     analysis: Option<&ParamAnalysis>,
 ) -> Result<f64, ParamError> {
+    curl_free(mesh, symmetry, matchings, frames, analysis).map(|(curl, _)| curl)
+}
+
+/// [`curl`] and the local step's curl*-free frames it measures against (per face, in each
+/// face's own frame): their length is the density a map close to `frames` has there, so its
+/// logarithm is the map's log-scale (relax drifts singularities down its slope, `edit::relax`).
+pub fn curl_free(
+    mesh: &TriMesh,
+    symmetry: usize,
+    matchings: &[i32],
+    frames: &[[DVec3; 2]],
+    analysis: Option<&ParamAnalysis>,
+) -> Result<(f64, Vec<[DVec3; 2]>), ParamError> {
     if matchings.len() != mesh.n_edges() || frames.len() != mesh.n_faces() {
         return Err(ParamError::InvalidInput(format!(
             "{} matchings and {} frames for {} edges and {} faces",
@@ -1365,7 +1378,7 @@ pub fn curl(
         },
     )?;
     let curl_free = local.solve(mesh, &cut, &rots, frames)?;
-    Ok(removed(mesh, frames, &curl_free))
+    Ok((removed(mesh, frames, &curl_free), curl_free))
 }
 
 /// Faces whose texture triangle (corners 3f, 3f + 1, 3f + 2 of `uv`) has non-positive or
