@@ -140,6 +140,7 @@ pub(crate) fn relax(
             }
         }
         // Global moves down the map's log-scale, which the patches above cannot see.
+        let (undrifted, undrifted_curl) = (best.clone(), best_curl);
         let drifted = super::drift::drift(
             base,
             &mut best,
@@ -148,7 +149,9 @@ pub(crate) fn relax(
             &mut scratch.search,
             cancel,
         )?;
-        if drifted > 0 {
+        if drifted > 0 && !super::drift::maps_as_well(base, &undrifted, &best, cancel)? {
+            (best, best_curl) = (undrifted, undrifted_curl);
+        } else if drifted > 0 {
             moves += drifted;
             improved = true;
         }
