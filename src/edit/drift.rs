@@ -37,9 +37,9 @@ const MAX_STEP: f64 = 4.0;
 const MIN_STEP: f64 = 0.5;
 /// Exact evaluations (local-step factorizations) a drift may take.
 const MAX_TRIES: usize = 16;
-/// No cone drifts nearer a geometric curve than this many grid cells (or than it already is):
-/// the curl knows nothing of the curves, and a singularity beside a curve leaves its line too
-/// little room (fandisk with features at 40°: 2 folded faces after relax without this).
+/// A cone within this many grid cells of a geometric curve does not drift, and none drifts
+/// that near: the curl knows nothing of the curves, and a singularity beside a curve leaves its
+/// line too little room (fandisk with features at 40°: 2 folded faces after relax without this).
 const CURVE_CLEARANCE_CELLS: f64 = 2.0;
 /// A cone moves only when its move is at least this many grid cells (its neighbours' slopes
 /// are flat against the steepest's).
