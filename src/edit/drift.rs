@@ -5,7 +5,7 @@
 //! the harmonic extension of the rim's e^{iNθ}, whose N zeros may crowd the centre (a flat disc
 //! of 9165 vertices: four +1/4 at 0.28 of the radius, curl 1107, conformal distortion 1.54,
 //! RSD edge of the remesh 32 %), while a map is least distorted with them near the rim (drifted
-//! to 0.88: curl 107, 1.15, 10 %).
+//! to 0.9: curl 107, 1.15, 10 %).
 //!
 //! A seamless map is a flat metric with cones at the singularities; its log-scale ρ
 //! (parameter length per unit of surface length) has the cones' logarithmic poles, −(k/N) ln r,
@@ -16,11 +16,13 @@
 //! pole taken out. A positive cone, which shrinks the cells around it, moves down ρ̃, towards
 //! larger cells. For negative cones the variance of ρ says up ρ̃, but on the meshes measured
 //! down lowered the curl more (spot: 284 → 189 against 281; kitten 332 → 266 against 329; a
-//! plate with three aligned holes 406 → 214 against no step kept), presumably because they sit
-//! beside positive ones that the field's pair cancellation left; so both are tried at the first
-//! step and the better kept for the rest of the drift. All cones move at once, the steepest by
-//! `step` cells and the others in proportion; a step is kept only when the exact curl drops,
-//! otherwise it is halved, so drift never raises the curl (relax's contract).
+//! plate with three aligned holes 406 → 214 against no step kept); why is not settled (perhaps
+//! the positive cones beside them that the field's pair cancellation left), so both ways are
+//! tried at the first step and the better kept for the rest of the drift. All cones move at
+//! once, the steepest by `step` cells and the others in proportion; a step is kept only when
+//! the exact curl drops, otherwise it is halved, so drift never raises the curl (relax's
+//! contract). The curl is not the map, though: cones keep clear of geometric curves and of
+//! each other, and relax takes a drift back when the solved map is worse ([`maps_as_well`]).
 
 use super::base::{Base, EditState};
 use super::{Cancel, EditError};
@@ -35,12 +37,19 @@ const OUTER_CELLS: f64 = 3.0;
 const FIRST_STEP: f64 = 2.0;
 const MAX_STEP: f64 = 4.0;
 const MIN_STEP: f64 = 0.5;
-/// Exact evaluations (local-step factorizations) a drift may take.
-const MAX_TRIES: usize = 16;
+/// Exact evaluations (local-step factorizations) a drift may take: about this many faces'
+/// worth, between 4 and 16 (each costs a factorization, and the slopes another after a kept
+/// step).
+const TRY_FACES: usize = 1_000_000;
 /// A cone within this many grid cells of a geometric curve does not drift, and none drifts
 /// that near: the curl knows nothing of the curves, and a singularity beside a curve leaves its
 /// line too little room (fandisk with features at 40°: 2 folded faces after relax without this).
 const CURVE_CLEARANCE_CELLS: f64 = 2.0;
+/// No cone drifts nearer another singularity than this many grid cells (or than it already
+/// is): igea at the default density has 188 singularities a few cells apart, and a drift
+/// that let them crowd lowered the curl and folded the map (0 → 30 folded faces, 14 → 78
+/// crowded singularities).
+const SINGULAR_CLEARANCE_CELLS: f64 = 3.0;
 /// A cone moves only when its move is at least this many grid cells (its neighbours' slopes
 /// are flat against the steepest's).
 const MIN_MOVE_CELLS: f64 = 0.5;
@@ -61,11 +70,12 @@ pub(crate) fn drift(
     let mut step = FIRST_STEP;
     let mut kept = 0;
     let mut tries = 0;
+    let max_tries = (TRY_FACES / base.mesh().n_faces().max(1)).clamp(4, 16);
     let mut slopes = slopes(base, best)?;
     // How negative cones move: decided by the exact curl at the first step (see the module
     // documentation), then kept.
     let mut negatives: Option<f64> = None;
-    while tries < MAX_TRIES && step >= MIN_STEP {
+    while tries < max_tries && step >= MIN_STEP {
         if cancel() {
             return Err(EditError::Cancelled);
         }
@@ -129,24 +139,17 @@ pub(crate) fn drift(
     Ok(kept)
 }
 
-/// Under geometric curves the curl is not the map: it knows nothing of the curves' lines, and a
-/// drifted cone can leave one too little room (the bunny with its boundary aligned: lower curl,
-/// but its 2Z² map folded and was solved on Z², 84 → 133 irregular remesh vertices). There a
-/// drift is kept only when the solved map folds no more, has no more mis-wound vertices and
-/// keeps its lattice; without geometric curves always (two solves saved).
+/// The curl is not the map: it knows nothing of the curves' lines (the bunny with its boundary
+/// aligned: lower curl, but its 2Z² map folded and was solved on Z², 84 → 133 irregular remesh
+/// vertices), nor of how close singularities may sit before the rounding crowds them (igea: 0
+/// → 30 folded faces). A drift is kept only when the solved map folds no more, has no more
+/// mis-wound vertices and keeps its lattice (two solves).
 pub(crate) fn maps_as_well(
     base: &Base,
     before: &EditState,
     after: &EditState,
     cancel: Cancel,
 ) -> Result<bool, EditError> {
-    let curves = after
-        .curves
-        .values()
-        .any(|c| c.kind == crate::constraint::CurveKind::Geometric);
-    if !curves {
-        return Ok(true);
-    }
     let (b, a) = (base.solve(before, cancel)?, base.solve(after, cancel)?);
     Ok(a.param.flipped_faces <= b.param.flipped_faces
         && a.param.miswound.len() <= b.param.miswound.len()
@@ -260,8 +263,9 @@ fn clearance(base: &Base, pinned: &[bool]) -> Vec<f64> {
 
 /// The vertex reached from p by steps to the neighbour nearest `target` while that gets nearer,
 /// backed off to the last one that may take a singularity (interior, not singular); `None`
-/// when that is p itself. The walk stops before a boundary vertex or one nearer the geometric
-/// curves than [`CURVE_CLEARANCE_CELLS`] (or than p, if p is nearer already).
+/// when that is p itself or p is within [`CURVE_CLEARANCE_CELLS`] of a geometric curve. The
+/// walk stops before a boundary vertex, one that near a curve, and one nearer another
+/// singularity than [`SINGULAR_CLEARANCE_CELLS`] (or than p is, if p is nearer already).
 fn walk_towards(
     base: &Base,
     state: &EditState,
@@ -274,6 +278,15 @@ fn walk_towards(
     if clearance[p] < keep {
         return None;
     }
+    let nearest_other = |v: usize| {
+        state
+            .singularities
+            .keys()
+            .filter(|&&s| s != p)
+            .map(|&s| (mesh.position(s) - mesh.position(v)).length())
+            .fold(f64::INFINITY, f64::min)
+    };
+    let apart = nearest_other(p).min(SINGULAR_CLEARANCE_CELLS * base.grid_size());
     let (mut cur, mut last_free) = (p, None);
     loop {
         let d = (mesh.position(cur) - target).length();
@@ -286,7 +299,7 @@ fn walk_towards(
         let Some((_, v)) = next else {
             return last_free;
         };
-        if mesh.is_boundary_vertex(v) || clearance[v] < keep || clearance[v] == 0.0 {
+        if mesh.is_boundary_vertex(v) || clearance[v] < keep || nearest_other(v) < apart {
             return last_free;
         }
         cur = v;
