@@ -1172,16 +1172,7 @@ impl Base {
 
     /// The curl of a state's field ([`Parameterization::curl`]), without the global step.
     pub fn curl(&self, state: &EditState) -> Result<f64, EditError> {
-        let theta = self.angles(state)?;
-        let matchings = reduce_matchings(&self.tr, &state.turns, self.settings.symmetry);
-        crate::param::curl(
-            &self.mesh,
-            self.settings.symmetry as usize,
-            &matchings,
-            &self.frames(&theta),
-            Some(&self.analysis),
-        )
-        .map_err(|e| EditError::Param(e.to_string()))
+        self.curl_free(state).map(|(curl, _)| curl)
     }
 
     /// [`Base::curl`] with the local step's curl*-free frames (`param::curl_free`).

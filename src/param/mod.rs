@@ -1349,7 +1349,7 @@ pub fn curl(
 
 /// [`curl`] and the local step's curl*-free frames it measures against (per face, in each
 /// face's own frame): their length is the density a map close to `frames` has there, so its
-/// logarithm is the map's log-scale (relax drifts singularities down its slope, `edit::relax`).
+/// logarithm is the map's log-scale (relax drifts singularities down its slope, `edit::drift`).
 pub fn curl_free(
     mesh: &TriMesh,
     symmetry: usize,
