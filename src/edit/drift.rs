@@ -226,7 +226,11 @@ fn slopes(base: &Base, state: &EditState) -> Result<Vec<(usize, i32, DVec3)>, Ed
         let Some([_, gx, gy]) = solve3(m, r) else {
             continue;
         };
-        out.push((p, k, t1 * gx + t2 * gy));
+        let slope = t1 * gx + t2 * gy;
+        // (a degenerate normal or fit moves nothing)
+        if slope.is_finite() {
+            out.push((p, k, slope));
+        }
     }
     Ok(out)
 }
