@@ -71,7 +71,7 @@ pub(crate) fn drift(
     let mut kept = 0;
     let mut tries = 0;
     let max_tries = (TRY_FACES / base.mesh().n_faces().max(1)).clamp(4, 16);
-    let mut slopes = slopes(base, best)?;
+    let mut slopes = slopes(base, best, &base.curl_free(best)?.1);
     // How negative cones move: decided by the exact curl at the first step (see the module
     // documentation), then kept.
     let mut negatives: Option<f64> = None;
@@ -83,7 +83,8 @@ pub(crate) fn drift(
         if steepest <= 0.0 {
             break;
         }
-        let mut trial = |sign: f64| -> Result<Option<(f64, EditState)>, EditError> {
+        type Trial = Option<(f64, Vec<[DVec3; 2]>, EditState)>;
+        let mut trial = |sign: f64| -> Result<Trial, EditError> {
             let mut candidate = best.clone();
             let mut moved = 0;
             for &(p, k, slope) in &slopes {
@@ -106,7 +107,8 @@ pub(crate) fn drift(
                 return Ok(None);
             }
             tries += 1;
-            Ok(Some((base.curl_free(&candidate)?.0, candidate)))
+            let (curl, free) = base.curl_free(&candidate)?;
+            Ok(Some((curl, free, candidate)))
         };
         let has_negative = slopes.iter().any(|s| s.1 < 0 && !pinned[s.0]);
         let result = match negatives {
@@ -126,12 +128,13 @@ pub(crate) fn drift(
             }
         };
         match result {
-            Some((curl, candidate)) if curl < *best_curl => {
+            Some((curl, free, candidate)) if curl < *best_curl => {
                 *best = candidate;
                 *best_curl = curl;
                 kept += 1;
                 step = (step * 1.5).min(MAX_STEP);
-                slopes = self::slopes(base, best)?;
+                // (from the frames the kept step was measured with: no second factorization)
+                slopes = self::slopes(base, best, &free);
             }
             _ => step *= 0.5,
         }
@@ -157,9 +160,9 @@ pub(crate) fn maps_as_well(
 }
 
 /// Per singularity (vertex, in increasing order) its index (in 1/N) and the slope ∇ρ̃ of the
-/// smooth part of the log-scale there, in the tangent plane (per model unit).
-fn slopes(base: &Base, state: &EditState) -> Result<Vec<(usize, i32, DVec3)>, EditError> {
-    let (_, free) = base.curl_free(state)?;
+/// smooth part of the log-scale there, in the tangent plane (per model unit); `free` are the
+/// state's curl*-free frames ([`Base::curl_free`]).
+fn slopes(base: &Base, state: &EditState, free: &[[DVec3; 2]]) -> Vec<(usize, i32, DVec3)> {
     let mesh = base.mesh();
     // ρ per face relative to the density asked for there (the frames carry m_f / h).
     let h = base.grid_size();
@@ -232,23 +235,22 @@ fn slopes(base: &Base, state: &EditState) -> Result<Vec<(usize, i32, DVec3)>, Ed
             out.push((p, k, slope));
         }
     }
-    Ok(out)
+    out
 }
 
 /// Per vertex its distance along edges to the nearest pinned one (0 on them, infinite without
 /// any).
 fn clearance(base: &Base, pinned: &[bool]) -> Vec<f64> {
-    use std::cmp::Reverse;
-    use std::collections::BinaryHeap;
+    use crate::mesh::heap::Nearest;
     let mesh = base.mesh();
     let mut dist = vec![f64::INFINITY; mesh.n_vertices()];
-    let mut heap = BinaryHeap::new();
+    let mut heap = std::collections::BinaryHeap::new();
     for (v, _) in pinned.iter().enumerate().filter(|x| *x.1) {
         dist[v] = 0.0;
-        heap.push((Reverse(0u64), v));
+        heap.push(Nearest(0.0, v as u32));
     }
-    while let Some((Reverse(d), v)) = heap.pop() {
-        let d = f64::from_bits(d);
+    while let Some(Nearest(d, v)) = heap.pop() {
+        let v = v as usize;
         if d > dist[v] {
             continue;
         }
@@ -257,8 +259,7 @@ fn clearance(base: &Base, pinned: &[bool]) -> Vec<f64> {
             let dw = d + mesh.vector(h).length();
             if dw < dist[w] {
                 dist[w] = dw;
-                // Non-negative floats order as their bits.
-                heap.push((Reverse(dw.to_bits()), w));
+                heap.push(Nearest(dw, w as u32));
             }
         }
     }
