@@ -1132,3 +1132,25 @@ fn polygons_sharing_two_edges_triangulate_to_a_manifold() {
     let (mesh, _) = quadcover::mesh::TriMesh::from_soup(&soup).expect("manifold");
     assert_eq!((mesh.n_faces(), mesh.euler_characteristic()), (6, 1));
 }
+
+// ---------------------------------------------------------------- command line
+
+/// `quadcover info m.obj | head -1`: the reader goes away before the tool has written. A Unix
+/// tool then ends quietly (SIGPIPE); Rust's default is a panic in `println!`.
+#[cfg(unix)]
+#[test]
+fn a_closed_standard_output_ends_a_subcommand_without_a_panic() {
+    use std::os::unix::process::ExitStatusExt;
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_quadcover"))
+        .arg("info")
+        .arg(data("ok/cube.obj"))
+        .stdout(writer)
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(out.status.signal(), Some(libc::SIGPIPE), "{:?}", out.status);
+}
