@@ -22,14 +22,18 @@
 //!   a parameter line held along each of them folds the map around it. So is a set round a
 //!   cone point ([`CONE_POINT_CELLS`], [`CONE_POINT_TURNS`]): next to a cone's apex the edges'
 //!   dihedral angles exceed the threshold a few edges out, the finer the tessellation the
-//!   nearer, so whether they were curves depended on the density. Boundary loops are never
-//!   dropped.
+//!   nearer, so whether they were curves depended on the density. So is a set that is mostly
+//!   no crease half a cell away ([`creases_at_scale`]): a ledge or step narrower than that (a
+//!   boolean union of faceted primitives leaves such ledges), a ridge of a scan's noise.
+//!   Boundary loops are never dropped.
 //! * Output order is by the smallest edge id of each chain (the two halves of a loop with one
 //!   split point come together, in walking order). Each chain is oriented along the first
 //!   halfedge of its smallest edge, so boundary curves run with the surface on their left.
 //!   Closed curves start at the start vertex of that halfedge.
 //!
 //! Every curve passes [`check_path`](super::check_path).
+
+use glam::DVec3;
 
 use crate::mesh::TriMesh;
 use crate::mesh::disjoint::Disjoint;
@@ -79,13 +83,15 @@ pub const CONE_POINT_TURNS: f64 = 1.0 / 3.0;
 
 /// [`feature_edges`] without the connected sets of them (edges sharing a vertex) that are no
 /// crease at the grid's scale `scale` (model units; 0 keeps every set): those shorter in total
-/// than [`MIN_FEATURE_CELLS`] cells, and those round a cone point ([`CONE_POINT_CELLS`],
+/// than [`MIN_FEATURE_CELLS`] cells, those whose bend mostly flattens out half a cell away
+/// ([`FAINT_SHARE`], [`creases_at_scale`]), and those round a cone point ([`CONE_POINT_CELLS`],
 /// [`CONE_POINT_TURNS`]; sets on the boundary are kept). In edge id order.
 pub fn significant_feature_edges(mesh: &TriMesh, angle_deg: f64, scale: f64) -> Vec<usize> {
     let edges = feature_edges(mesh, angle_deg);
     if scale <= 0.0 || edges.is_empty() {
         return edges;
     }
+    let persists = creases_at_scale(mesh, &edges, angle_deg, CREASE_CELLS * scale);
     // The connected sets (edges sharing a vertex), by the smallest vertex of each.
     let mut sets = Disjoint::new(mesh.n_vertices());
     for &e in &edges {
@@ -93,11 +99,16 @@ pub fn significant_feature_edges(mesh: &TriMesh, angle_deg: f64, scale: f64) -> 
         sets.union(a, b);
     }
     let mut length = vec![0.0; mesh.n_vertices()];
+    let mut faint = vec![0.0; mesh.n_vertices()];
     let mut members: Vec<Vec<usize>> = vec![Vec::new(); mesh.n_vertices()];
-    for &e in &edges {
+    for (&e, &persists) in edges.iter().zip(&persists) {
         let [a, b] = mesh.edge_vertices(e);
         let root = sets.find(a);
-        length[root] += (mesh.position(b) - mesh.position(a)).length();
+        let l = (mesh.position(b) - mesh.position(a)).length();
+        length[root] += l;
+        if !persists {
+            faint[root] += l;
+        }
         members[root].extend([a, b]);
     }
     let defects = mesh.angle_defects();
@@ -108,13 +119,104 @@ pub fn significant_feature_edges(mesh: &TriMesh, angle_deg: f64, scale: f64) -> 
         }
         vs.sort_unstable();
         vs.dedup();
-        dropped[root] =
-            length[root] < MIN_FEATURE_CELLS * scale || cone_point(mesh, vs, &defects, scale);
+        dropped[root] = length[root] < MIN_FEATURE_CELLS * scale
+            || faint[root] > FAINT_SHARE * length[root]
+            || cone_point(mesh, vs, &defects, scale);
     }
     edges
         .into_iter()
         .filter(|&e| !dropped[sets.find(mesh.edge_vertices(e)[0])])
         .collect()
+}
+
+/// The radius, in grid cells, over which a feature edge's crease must persist
+/// ([`creases_at_scale`]).
+pub const CREASE_CELLS: f64 = 0.5;
+
+/// The share of the detection angle that the crease measured over [`CREASE_CELLS`] must keep
+/// (loose, so that a real crease between curved sides is not broken up).
+pub const CREASE_KEPT_FRACTION: f64 = 0.5;
+
+/// A connected set of feature edges goes when more than this share of its length is no crease
+/// half a cell away ([`creases_at_scale`]). Whole sets, not single edges: next to a junction of
+/// creases the two sides mix the third face's normals, and one edge taken out of a crease
+/// (fandisk at 1500 and 6500 target vertices had one) would leave a sharp edge off the lines.
+pub const FAINT_SHARE: f64 = 0.5;
+
+/// Per edge of `edges`: whether its crease persists at the radius `r` (model units): the faces
+/// within `r` of the edge's midpoint are split between its two faces by their distance through
+/// the surface (centroid to centroid across edges; a face is within `r` when a point of it is),
+/// and the two sides' area-weighted normals must still make
+/// [`CREASE_KEPT_FRACTION`] of `angle_deg`. A crease is one at the grid's scale when the
+/// surface keeps its bend half a cell away. What fails are bends narrower than that, which the
+/// grid cannot follow: a ledge a fraction of a cell wide (a boolean union
+/// of a faceted dome and a cylinder leaves one where the polygons differ: two 90° creases
+/// 0.001 apart, each a curve, and the map folded around them: 208 faces, 148 singularities),
+/// a step lower than half a cell, a scan's ridge of noise. A thin plate's rim keeps both
+/// creases (the far side's faces are on the rim's side), and where the input's triangles are
+/// larger than `r` only the edge's own two faces are within it, so nothing changes.
+fn creases_at_scale(mesh: &TriMesh, edges: &[usize], angle_deg: f64, r: f64) -> Vec<bool> {
+    use crate::mesh::heap::Nearest;
+    let cos_kept = (CREASE_KEPT_FRACTION * angle_deg).to_radians().cos();
+    // Per face: the edge it was last reached for (so nothing is cleared between edges), its
+    // side and its distance.
+    let mut stamp = vec![usize::MAX; mesh.n_faces()];
+    let mut side = vec![0u8; mesh.n_faces()];
+    let mut dist = vec![f64::INFINITY; mesh.n_faces()];
+    let mut heap = std::collections::BinaryHeap::new();
+    edges
+        .iter()
+        .map(|&e| {
+            let (h0, Some(h1)) = mesh.edge_halfedges(e) else {
+                return true;
+            };
+            let [a, b] = mesh.edge_vertices(e);
+            let mid = 0.5 * (mesh.position(a) + mesh.position(b));
+            let mut normals = [DVec3::ZERO; 2];
+            heap.clear();
+            for (s, h) in [h0, h1].into_iter().enumerate() {
+                let f = mesh.face_of(h);
+                stamp[f] = e;
+                side[f] = s as u8;
+                dist[f] = 0.0;
+                heap.push(Nearest(0.0, f as u32));
+            }
+            while let Some(Nearest(d, f)) = heap.pop() {
+                let f = f as usize;
+                if d > dist[f] {
+                    continue;
+                }
+                normals[side[f] as usize] += mesh.face_area_vector(f);
+                let c = mesh.face_centroid(f);
+                for h in 3 * f..3 * f + 3 {
+                    let Some(g) = mesh.twin(h).map(|t| mesh.face_of(t)) else {
+                        continue;
+                    };
+                    if distance_to_face(mesh, g, mid) > r {
+                        continue;
+                    }
+                    let cg = mesh.face_centroid(g);
+                    let dg = d + (cg - c).length();
+                    if stamp[g] != e || dg < dist[g] {
+                        stamp[g] = e;
+                        side[g] = side[f];
+                        dist[g] = dg;
+                        heap.push(Nearest(dg, g as u32));
+                    }
+                }
+            }
+            let [n0, n1] = normals.map(|n| n.normalize_or_zero());
+            n0.dot(n1) < cos_kept
+        })
+        .collect()
+}
+
+/// The distance from `q` to face `f` (parry's point query on the triangle).
+fn distance_to_face(mesh: &TriMesh, f: usize, q: DVec3) -> f64 {
+    use parry3d_f64::{math::Vector, query::PointQuery, shape::Triangle};
+    let v = |p: DVec3| Vector::new(p.x, p.y, p.z);
+    let [a, b, c] = mesh.face(f).map(|i| v(mesh.position(i)));
+    Triangle::new(a, b, c).distance_to_local_point(v(q), true)
 }
 
 /// Whether the feature edges on `vertices` (one connected set) are a cone point's: all within
@@ -370,8 +472,6 @@ fn chain_edges(
 mod tests {
     use std::collections::HashMap;
 
-    use glam::DVec3;
-
     use super::*;
     use crate::constraint::{check_path, halfedge_between};
     use crate::mesh::generate;
@@ -444,6 +544,45 @@ mod tests {
         // Longer than the creases: nothing stays. And `detect_features` drops the same.
         assert!(significant_feature_edges(&m, 40.0, 12.5 / MIN_FEATURE_CELLS).is_empty());
         assert_eq!(detect_features(&m, 40.0, 0.9).len(), 12);
+    }
+
+    /// A step lower than half a cell is no crease at the grid's scale, while a plate thinner
+    /// than a cell keeps its rims: `creases_at_scale`.
+    #[test]
+    fn creases_must_persist_half_a_cell_away() {
+        // A plane of 0.1 squares with a step 0.01 high: the columns of vertices from 5 on moved
+        // back to 0.001 past column 4 and raised, so a strip 0.001 wide climbs at 84° between
+        // two creases (each ten edges, one piece of length 1).
+        let g = generate::grid(10, 10, 1.0, 1.0);
+        let p: Vec<DVec3> = g
+            .positions()
+            .iter()
+            .map(|&q| {
+                let column = (q.x * 10.0).round() as usize;
+                let x = if column >= 5 { q.x - 0.099 } else { q.x };
+                let z = if column >= 5 { 0.01 } else { 0.0 };
+                DVec3::new(x, q.y, z)
+            })
+            .collect();
+        let step = TriMesh::from_triangles(p, g.faces().to_vec()).unwrap();
+        let all = feature_edges(&step, 40.0);
+        assert_eq!(all.len(), 20, "the step's two creases");
+        // Cells of 0.1: half a cell away the surface is flat again on both sides.
+        assert!(significant_feature_edges(&step, 40.0, 0.1).is_empty());
+        // Cells of 0.002: the strip is half a cell wide, both creases stay.
+        assert_eq!(significant_feature_edges(&step, 40.0, 0.002), all);
+        // A plate 1 × 1 × 0.01 (the cube flattened): its 96 crease edges stay at cells of 0.1,
+        // the far face lying on the rim's side of each crease.
+        let c = cube(3);
+        let p: Vec<DVec3> = c
+            .positions()
+            .iter()
+            .map(|&q| q * DVec3::new(1.0, 1.0, 0.01))
+            .collect();
+        let plate = TriMesh::from_triangles(p, c.faces().to_vec()).unwrap();
+        let all = feature_edges(&plate, 40.0);
+        assert_eq!(all.len(), 96);
+        assert_eq!(significant_feature_edges(&plate, 40.0, 0.1), all);
     }
 
     /// A cone's apex is no crease: the sets of feature edges round it go, however long, while
