@@ -216,9 +216,11 @@ pub struct CurvesUi {
     /// built for.
     curves_key: Option<CurvesKey>,
     curves_overlay: Option<Arc<Overlay>>,
-    /// (mesh generation, angle) of the feature preview, its edge count and overlay.
-    /// (document generation, feature angle, minimum set length) of the preview shown.
+    /// (document generation, feature angle, grid size) of the preview shown.
     preview_key: Option<(u64, f64, f64)>,
+    /// The crease angles at the grid's scale measured so far, for (document generation, grid
+    /// size): a step of the angle slider measures only the edges it adds.
+    preview_creases: Option<((u64, f64), crate::constraint::detect::CreaseAngles)>,
     preview_edges: usize,
     /// [`crate::constraint::detect::noise_warning`] of the curves the preview's edges make.
     preview_warning: Option<String>,
@@ -236,6 +238,7 @@ impl Default for CurvesUi {
             curves_key: None,
             curves_overlay: None,
             preview_key: None,
+            preview_creases: None,
             preview_edges: 0,
             preview_warning: None,
             preview_overlay: None,
@@ -296,18 +299,19 @@ impl EditorApp {
         let ui = &mut self.curves;
         let key = (self.document.generation(), ui.feature_angle, scale);
         if ui.preview_key != Some(key) {
+            use crate::constraint::detect;
+            let creases_key = (key.0, scale);
+            if ui.preview_creases.as_ref().map(|(k, _)| *k) != Some(creases_key) {
+                ui.preview_creases = Some((creases_key, detect::CreaseAngles::new(mesh, scale)));
+            }
+            let (_, creases) = ui.preview_creases.as_mut().expect("made above");
             let edges =
-                crate::constraint::detect::significant_feature_edges(mesh, ui.feature_angle, scale);
+                detect::significant_feature_edges_with(mesh, ui.feature_angle, scale, creases);
             ui.preview_edges = edges.len();
             ui.preview_warning = (scale > 0.0)
                 .then(|| {
-                    let curves =
-                        crate::constraint::detect::detect_features(mesh, ui.feature_angle, scale);
-                    crate::constraint::detect::noise_warning(
-                        mesh,
-                        curves.iter().map(|c| c.vertices.as_slice()),
-                        scale,
-                    )
+                    let curves = detect::chain_features(mesh, &edges, scale);
+                    detect::noise_warning(mesh, curves.iter().map(|c| c.vertices.as_slice()), scale)
                 })
                 .flatten();
             ui.preview_overlay = Some(Arc::new(feature_overlay(mesh, &edges)));

@@ -23,7 +23,7 @@
 //!   cone point ([`CONE_POINT_CELLS`], [`CONE_POINT_TURNS`]): next to a cone's apex the edges'
 //!   dihedral angles exceed the threshold a few edges out, the finer the tessellation the
 //!   nearer, so whether they were curves depended on the density. So is a set that is mostly
-//!   no crease half a cell away ([`creases_at_scale`]): a ledge or step narrower than that (a
+//!   no crease half a cell away ([`CreaseAngles`]): a ledge or step narrower than that (a
 //!   boolean union of faceted primitives leaves such ledges), a ridge of a scan's noise.
 //!   Boundary loops are never dropped.
 //! * Output order is by the smallest edge id of each chain (the two halves of a loop with one
@@ -84,14 +84,28 @@ pub const CONE_POINT_TURNS: f64 = 1.0 / 3.0;
 /// [`feature_edges`] without the connected sets of them (edges sharing a vertex) that are no
 /// crease at the grid's scale `scale` (model units; 0 keeps every set): those shorter in total
 /// than [`MIN_FEATURE_CELLS`] cells, those whose bend mostly flattens out half a cell away
-/// ([`FAINT_SHARE`], [`creases_at_scale`]), and those round a cone point ([`CONE_POINT_CELLS`],
+/// ([`FAINT_SHARE`], [`CreaseAngles`]), and those round a cone point ([`CONE_POINT_CELLS`],
 /// [`CONE_POINT_TURNS`]; sets on the boundary are kept). In edge id order.
 pub fn significant_feature_edges(mesh: &TriMesh, angle_deg: f64, scale: f64) -> Vec<usize> {
+    significant_feature_edges_with(mesh, angle_deg, scale, &mut CreaseAngles::new(mesh, scale))
+}
+
+/// [`significant_feature_edges`] with the crease angles at the grid's scale kept in `creases`
+/// (made for the same mesh and `scale`), so that asking again at another angle measures only
+/// the edges not measured before: the editor's preview asks at every step of its slider.
+pub fn significant_feature_edges_with(
+    mesh: &TriMesh,
+    angle_deg: f64,
+    scale: f64,
+    creases: &mut CreaseAngles,
+) -> Vec<usize> {
     let edges = feature_edges(mesh, angle_deg);
     if scale <= 0.0 || edges.is_empty() {
         return edges;
     }
-    let persists = creases_at_scale(mesh, &edges, angle_deg, CREASE_CELLS * scale);
+    creases.measure(mesh, &edges);
+    let kept = (CREASE_KEPT_FRACTION * angle_deg).to_radians();
+    let persists: Vec<bool> = edges.iter().map(|&e| creases.angle[e] > kept).collect();
     // The connected sets (edges sharing a vertex), by the smallest vertex of each.
     let mut sets = Disjoint::new(mesh.n_vertices());
     for &e in &edges {
@@ -130,7 +144,7 @@ pub fn significant_feature_edges(mesh: &TriMesh, angle_deg: f64, scale: f64) -> 
 }
 
 /// The radius, in grid cells, over which a feature edge's crease must persist
-/// ([`creases_at_scale`]).
+/// ([`CreaseAngles`]).
 pub const CREASE_CELLS: f64 = 0.5;
 
 /// The share of the detection angle that the crease measured over [`CREASE_CELLS`] must keep
@@ -138,16 +152,16 @@ pub const CREASE_CELLS: f64 = 0.5;
 pub const CREASE_KEPT_FRACTION: f64 = 0.5;
 
 /// A connected set of feature edges goes when more than this share of its length is no crease
-/// half a cell away ([`creases_at_scale`]). Whole sets, not single edges: next to a junction of
+/// half a cell away ([`CreaseAngles`]). Whole sets, not single edges: next to a junction of
 /// creases the two sides mix the third face's normals, and one edge taken out of a crease
 /// (fandisk at 1500 and 6500 target vertices had one) would leave a sharp edge off the lines.
 pub const FAINT_SHARE: f64 = 0.5;
 
-/// Per edge of `edges`: whether its crease persists at the radius `r` (model units): the faces
+/// The crease angles of edges at the radius `r` = [`CREASE_CELLS`] `scale` (model units): the faces
 /// within `r` of the edge's midpoint are split between its two faces by their distance through
 /// the surface (centroid to centroid across edges; a face is within `r` when a point of it is),
-/// and the two sides' area-weighted normals must still make
-/// [`CREASE_KEPT_FRACTION`] of `angle_deg`. A crease is one at the grid's scale when the
+/// and the angle between the two sides' area-weighted normals is the edge's crease angle there,
+/// which must still be [`CREASE_KEPT_FRACTION`] of the detection angle. A crease is one at the grid's scale when the
 /// surface keeps its bend half a cell away. What fails are bends narrower than that, which the
 /// grid cannot follow: a ledge a fraction of a cell wide (a boolean union
 /// of a faceted dome and a cylinder leaves one where the polygons differ: two 90° creases
@@ -155,60 +169,80 @@ pub const FAINT_SHARE: f64 = 0.5;
 /// a step lower than half a cell, a scan's ridge of noise. A thin plate's rim keeps both
 /// creases (the far side's faces are on the rim's side), and where the input's triangles are
 /// larger than `r` only the edge's own two faces are within it, so nothing changes.
-fn creases_at_scale(mesh: &TriMesh, edges: &[usize], angle_deg: f64, r: f64) -> Vec<bool> {
+#[derive(Debug)]
+pub struct CreaseAngles {
+    r: f64,
+    /// Per edge (radians); NaN until measured.
+    angle: Vec<f64>,
+}
+
+impl CreaseAngles {
+    pub fn new(mesh: &TriMesh, scale: f64) -> Self {
+        CreaseAngles {
+            r: CREASE_CELLS * scale,
+            angle: vec![f64::NAN; mesh.n_edges()],
+        }
+    }
+
+    /// Measures the edges of `edges` not measured yet, in parallel.
+    fn measure(&mut self, mesh: &TriMesh, edges: &[usize]) {
+        use rayon::prelude::*;
+        let todo: Vec<usize> = edges
+            .iter()
+            .copied()
+            .filter(|&e| self.angle[e].is_nan())
+            .collect();
+        let r = self.r;
+        let angles: Vec<f64> = todo.par_iter().map(|&e| crease_angle(mesh, e, r)).collect();
+        for (e, a) in todo.into_iter().zip(angles) {
+            self.angle[e] = a;
+        }
+    }
+}
+
+/// Edge `e`'s crease angle at the radius `r` ([`CreaseAngles`]); π on a boundary edge (kept).
+fn crease_angle(mesh: &TriMesh, e: usize, r: f64) -> f64 {
     use crate::mesh::heap::Nearest;
-    let cos_kept = (CREASE_KEPT_FRACTION * angle_deg).to_radians().cos();
-    // Per face: the edge it was last reached for (so nothing is cleared between edges), its
-    // side and its distance.
-    let mut stamp = vec![usize::MAX; mesh.n_faces()];
-    let mut side = vec![0u8; mesh.n_faces()];
-    let mut dist = vec![f64::INFINITY; mesh.n_faces()];
+    use std::collections::HashMap;
+    let (h0, Some(h1)) = mesh.edge_halfedges(e) else {
+        return std::f64::consts::PI;
+    };
+    let [a, b] = mesh.edge_vertices(e);
+    let mid = 0.5 * (mesh.position(a) + mesh.position(b));
+    // Per face reached: its side and its distance through the surface.
+    let mut reached: HashMap<usize, (usize, f64)> = HashMap::new();
     let mut heap = std::collections::BinaryHeap::new();
-    edges
-        .iter()
-        .map(|&e| {
-            let (h0, Some(h1)) = mesh.edge_halfedges(e) else {
-                return true;
+    for (side, h) in [h0, h1].into_iter().enumerate() {
+        let f = mesh.face_of(h);
+        reached.insert(f, (side, 0.0));
+        heap.push(Nearest(0.0, f as u32));
+    }
+    let mut normals = [DVec3::ZERO; 2];
+    while let Some(Nearest(d, f)) = heap.pop() {
+        let f = f as usize;
+        let (side, best) = reached[&f];
+        if d > best {
+            continue;
+        }
+        normals[side] += mesh.face_area_vector(f);
+        let c = mesh.face_centroid(f);
+        for h in 3 * f..3 * f + 3 {
+            let Some(g) = mesh.twin(h).map(|t| mesh.face_of(t)) else {
+                continue;
             };
-            let [a, b] = mesh.edge_vertices(e);
-            let mid = 0.5 * (mesh.position(a) + mesh.position(b));
-            let mut normals = [DVec3::ZERO; 2];
-            heap.clear();
-            for (s, h) in [h0, h1].into_iter().enumerate() {
-                let f = mesh.face_of(h);
-                stamp[f] = e;
-                side[f] = s as u8;
-                dist[f] = 0.0;
-                heap.push(Nearest(0.0, f as u32));
+            let dg = d + (mesh.face_centroid(g) - c).length();
+            if reached.get(&g).is_some_and(|&(_, dist)| dist <= dg) {
+                continue;
             }
-            while let Some(Nearest(d, f)) = heap.pop() {
-                let f = f as usize;
-                if d > dist[f] {
-                    continue;
-                }
-                normals[side[f] as usize] += mesh.face_area_vector(f);
-                let c = mesh.face_centroid(f);
-                for h in 3 * f..3 * f + 3 {
-                    let Some(g) = mesh.twin(h).map(|t| mesh.face_of(t)) else {
-                        continue;
-                    };
-                    if distance_to_face(mesh, g, mid) > r {
-                        continue;
-                    }
-                    let cg = mesh.face_centroid(g);
-                    let dg = d + (cg - c).length();
-                    if stamp[g] != e || dg < dist[g] {
-                        stamp[g] = e;
-                        side[g] = side[f];
-                        dist[g] = dg;
-                        heap.push(Nearest(dg, g as u32));
-                    }
-                }
+            if distance_to_face(mesh, g, mid) > r {
+                continue;
             }
-            let [n0, n1] = normals.map(|n| n.normalize_or_zero());
-            n0.dot(n1) < cos_kept
-        })
-        .collect()
+            reached.insert(g, (side, dg));
+            heap.push(Nearest(dg, g as u32));
+        }
+    }
+    let [n0, n1] = normals.map(|n| n.normalize_or_zero());
+    n0.dot(n1).clamp(-1.0, 1.0).acos()
 }
 
 /// The distance from `q` to face `f` (parry's point query on the triangle).
@@ -253,7 +287,12 @@ fn cone_point(mesh: &TriMesh, vertices: &[usize], defects: &[f64], scale: f64) -
 /// be sharp.
 pub fn detect_features(mesh: &TriMesh, angle_deg: f64, scale: f64) -> Vec<DetectedCurve> {
     let edges = significant_feature_edges(mesh, angle_deg, scale);
-    chain_edges(mesh, &edges, scale, |v| mesh.is_boundary_vertex(v))
+    chain_features(mesh, &edges, scale)
+}
+
+/// The curves [`detect_features`] makes of `edges` (what [`significant_feature_edges`] kept).
+pub fn chain_features(mesh: &TriMesh, edges: &[usize], scale: f64) -> Vec<DetectedCurve> {
+    chain_edges(mesh, edges, scale, |v| mesh.is_boundary_vertex(v))
 }
 
 /// A feature curve shorter than this many grid cells counts towards [`noise_warning`].
@@ -547,7 +586,7 @@ mod tests {
     }
 
     /// A step lower than half a cell is no crease at the grid's scale, while a plate thinner
-    /// than a cell keeps its rims: `creases_at_scale`.
+    /// than a cell keeps its rims: `CreaseAngles`.
     #[test]
     fn creases_must_persist_half_a_cell_away() {
         // A plane of 0.1 squares with a step 0.01 high: the columns of vertices from 5 on moved
