@@ -291,6 +291,18 @@ fn finish_load(
             grid
         ));
     }
+    if let Some(share) =
+        crate::mesh::isotropic::long_needles(&mesh, &settings.density, settings.symmetry)
+        && needles <= crate::mesh::isotropic::NEEDLE_AREA_SHARE
+    {
+        report.warnings.push(format!(
+            "{:.0} % of the area is in needle triangles longer than {} grid cells (fans across \
+             flat faces): the map cannot bend or hold a singularity inside them (it will fold \
+             there); File > Remesh input makes an isotropic copy with the sharp features kept",
+            100.0 * share,
+            crate::mesh::isotropic::LONG_NEEDLE_CELLS
+        ));
+    }
     let fans = crate::mesh::isotropic::fan_centres(&mesh).len();
     if fans > 0 {
         report.warnings.push(format!(

@@ -18,7 +18,8 @@ use crate::field::{self, Symmetry};
 use crate::io;
 use crate::mesh::TriMesh;
 use crate::mesh::isotropic::{
-    NEEDLE_AREA_SHARE, isotropic_remesh, needle_area_share, prepared_options, too_coarse,
+    NEEDLE_AREA_SHARE, isotropic_remesh, long_needles, needle_area_share, prepared_options,
+    too_coarse,
 };
 use crate::param;
 
@@ -437,12 +438,20 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let params = settings.field_params();
     // The grid's vertex count when the input is far coarser.
     let coarse = too_coarse(&mesh, &params.density, params.symmetry);
-    let raw = needles > NEEDLE_AREA_SHARE || coarse.is_some();
+    // The share of the area in needles many cells long, when large enough.
+    let long = long_needles(&mesh, &params.density, params.symmetry);
+    let raw = needles > NEEDLE_AREA_SHARE || coarse.is_some() || long.is_some();
     // Why the input is (or would be) remeshed, for the messages.
     let why = if let Some(grid) = coarse {
         format!(
             "{} vertices, far coarser than the grid's {grid:.0}",
             mesh.n_vertices()
+        )
+    } else if let (Some(share), false) = (long, needles > NEEDLE_AREA_SHARE) {
+        format!(
+            "{:.0} % of its area in needles longer than {} grid cells",
+            100.0 * share,
+            crate::mesh::isotropic::LONG_NEEDLE_CELLS
         )
     } else {
         format!("{:.0} % of its area in needles", 100.0 * needles)

@@ -33,6 +33,16 @@ pub const NEEDLE_DEG: f64 = 10.0;
 /// have at most 1.3 % (camelhead), raw CAD tessellations 40–100 %.
 pub const NEEDLE_AREA_SHARE: f64 = 0.2;
 
+/// [`long_needles`]: a needle longer than this many grid cells ...
+pub const LONG_NEEDLE_CELLS: f64 = 2.0;
+/// ... is a long needle, and a mesh with more than this share of its area in long needles is
+/// remeshed whatever its needle share. A boolean of an icosphere (2455 vertices) with a cube
+/// corner cut out has 7.7 % of its area in needles, all of them on the three flat faces of the
+/// notch, fans of needles 16 cells long at 3000 target vertices: with features at 40° its map
+/// kept 77–83 folded faces at 1500, 3000 and 15 000 target vertices; remeshed, none. The shared
+/// meshes have at most 1.2 % (camelhead) at 1500–50 000 target vertices.
+pub const LONG_NEEDLE_AREA_SHARE: f64 = 0.05;
+
 /// [`too_coarse`]: a low-poly mesh has fewer vertices than this ...
 pub const COARSE_MAX_VERTICES: usize = 1_000;
 /// ... and this many times fewer than the grid. The shared meshes at the default density (10 000
@@ -161,6 +171,36 @@ pub fn too_coarse(
     let n = mesh.n_vertices();
     let grid = crate::field::density::grid_vertices(mesh, density, symmetry)?;
     (n < COARSE_MAX_VERTICES && (n as f64) * COARSE_RATIO < grid).then_some(grid)
+}
+
+/// The share of `mesh`'s area in needles (a corner under [`NEEDLE_DEG`]) longer than
+/// [`LONG_NEEDLE_CELLS`] cells of a grid of `density`, when it exceeds
+/// [`LONG_NEEDLE_AREA_SHARE`]; `None` otherwise (or where the grid has no size). The map is
+/// linear on each triangle: a fan of needles across many cells has room neither to bend nor
+/// for a singularity, whatever share of the whole surface it is.
+pub fn long_needles(
+    mesh: &TriMesh,
+    density: &crate::field::density::Density,
+    symmetry: crate::field::Symmetry,
+) -> Option<f64> {
+    let grid = crate::field::density::grid_vertices(mesh, density, symmetry)?;
+    let total = mesh.total_area();
+    let h = (total / (crate::field::density::cell_area(symmetry) * grid)).sqrt();
+    let long = LONG_NEEDLE_CELLS * h;
+    let area: f64 = (0..mesh.n_faces())
+        .filter(|&f| {
+            let corners = (0..3).map(|k| mesh.corner_angle(3 * f + k));
+            let min = corners.fold(f64::INFINITY, f64::min);
+            let longest = (0..3)
+                .map(|k| mesh.vector(3 * f + k).length())
+                .fold(0.0, f64::max);
+            (min.to_degrees() < NEEDLE_DEG || min.is_nan()) && longest > long
+        })
+        .map(|f| mesh.face_area(f))
+        .filter(|a| a.is_finite())
+        .sum();
+    let share = area / total;
+    (share > LONG_NEEDLE_AREA_SHARE).then_some(share)
 }
 
 /// What a vertex may do.
@@ -705,6 +745,43 @@ impl Work<'_> {
 mod tests {
     use super::*;
     use crate::mesh::generate;
+
+    /// A unit square: a fine grid on [0, 0.8] × [0, 1] and a fan of 80 needles (0.2–0.54 long)
+    /// from (1, 0.5) over the strip beside it, 10 % of the area.
+    #[test]
+    fn fans_of_needles_many_cells_long_ask_for_a_remesh() {
+        use crate::field::Symmetry;
+        use crate::field::density::Density;
+        let g = generate::grid(64, 80, 0.8, 1.0);
+        let mut p = g.positions().to_vec();
+        let mut t = g.faces().to_vec();
+        // The grid's right column, bottom to top (x = 0.8).
+        let column: Vec<u32> = (0..=80).map(|j| (j * 65 + 64) as u32).collect();
+        let apex = p.len() as u32;
+        p.push(DVec3::new(1.0, 0.5, 0.0));
+        let (bottom, top) = (apex + 1, apex + 2);
+        p.push(DVec3::new(1.0, 0.0, 0.0));
+        p.push(DVec3::new(1.0, 1.0, 0.0));
+        for w in column.windows(2) {
+            t.push([w[0], apex, w[1]]);
+        }
+        t.push([column[0], bottom, apex]);
+        t.push([column[80], apex, top]);
+        let m = TriMesh::from_triangles(p, t).unwrap();
+        let needles = needle_area_share(&m);
+        assert!(needles > 0.05 && needles < NEEDLE_AREA_SHARE, "{needles}");
+        // 3000 grid vertices (cells of 0.018): all of the fan is long needles.
+        let share = long_needles(&m, &Density::TargetVertices(3000), Symmetry::Four);
+        assert!(
+            share.is_some_and(|s| (s - needles).abs() < 0.02),
+            "{share:?}"
+        );
+        // 20 grid vertices (cells of 0.22): only the fan's ends are over two cells long.
+        assert_eq!(
+            long_needles(&m, &Density::TargetVertices(20), Symmetry::Four),
+            None
+        );
+    }
 
     #[test]
     fn flat_fans_are_fan_centres_and_cone_apexes_are_not() {
