@@ -1513,6 +1513,66 @@ fn solve_with_features(
         .unwrap()
 }
 
+/// A fine part beside a fan of long needles (a unit square: a grid on [0, 0.8] × [0, 1] and 80
+/// needles 0.2–0.54 long from (1, 0.5) over the strip beside it, 10 % of the area, half the
+/// raw-tessellation share) is remeshed by `solve`, and `info` says why; `--keep-input` keeps it.
+#[test]
+fn cli_remeshes_fans_of_long_needles() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = quadcover::mesh::generate::grid(64, 80, 0.8, 1.0);
+    let mut p = g.positions().to_vec();
+    let mut t = g.faces().to_vec();
+    let column: Vec<u32> = (0..=80).map(|j| (j * 65 + 64) as u32).collect();
+    let apex = p.len() as u32;
+    p.extend([[1.0, 0.5, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]].map(glam::DVec3::from_array));
+    for w in column.windows(2) {
+        t.push([w[0], apex, w[1]]);
+    }
+    t.push([column[0], apex + 1, apex]);
+    t.push([column[80], apex, apex + 2]);
+    let part = dir.path().join("fan.obj");
+    quadcover::io::write_obj(&part, &quadcover::io::ObjOutput::new(&p, &t[..])).unwrap();
+    let exe = env!("CARGO_BIN_EXE_quadcover");
+    let info = std::process::Command::new(exe)
+        .args(["info", "--json"])
+        .arg(&part)
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    let share = v["long_needle_area_share"].as_f64().unwrap();
+    assert!((share - 0.1).abs() < 0.01, "{share}");
+    assert!(v["needle_area_share"].as_f64().unwrap() < 0.2, "{v}");
+    let solve = |extra: &[&str]| {
+        let report = dir.path().join("r.json");
+        let out = std::process::Command::new(exe)
+            .arg("solve")
+            .arg(&part)
+            .args(["--target-vertices", "3000"])
+            .args(extra)
+            .arg("--out")
+            .arg(dir.path().join("uv.obj"))
+            .arg("--report")
+            .arg(&report)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(out.status.success(), "{stderr}");
+        let r: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        (stderr, r)
+    };
+    let (stderr, r) = solve(&[]);
+    assert!(
+        stderr.contains("in needles longer than 2 grid cells"),
+        "{stderr}"
+    );
+    assert_eq!(r["prepared_input"]["input_vertices"], p.len());
+    assert_eq!(r["flipped_faces"], 0);
+    let (stderr, r) = solve(&["--keep-input"]);
+    assert!(!stderr.contains("input remeshed"), "{stderr}");
+    assert!(r["prepared_input"].is_null(), "{}", r["prepared_input"]);
+}
+
 /// A low-poly mesh far coarser than the grid (an octahedron: 6 vertices, no needles) is
 /// remeshed by `solve` too: kept as it is, its faces hold no grid point inside and the map
 /// folds or covers none; remeshed, every crease is a grid line and nothing folds.

@@ -25,6 +25,8 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     let params = crate::edit::Settings::default().field_params();
     let coarse = crate::mesh::isotropic::too_coarse(&loaded.mesh, &params.density, params.symmetry)
         .is_some();
+    let long_needles =
+        crate::mesh::isotropic::long_needles(&loaded.mesh, &params.density, params.symmetry);
     if args.json {
         let value = serde_json::json!({
             "file": args.mesh,
@@ -32,6 +34,7 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
             "topology": topology,
             "needle_area_share": needles,
             "coarse": coarse,
+            "long_needle_area_share": long_needles,
             "warnings": loaded.report.warnings,
         });
         println!("{}", serde_json::to_string_pretty(&value)?);
@@ -52,6 +55,13 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     );
     if needles > NEEDLE_AREA_SHARE {
         println!(": a raw tessellation; `solve` remeshes it first (`quadcover prepare`)");
+    } else if let Some(share) = long_needles {
+        println!(
+            ", {:.1} % in needles longer than {} cells of the default grid (fans across flat \
+             faces); `solve` remeshes it first (`quadcover prepare`)",
+            100.0 * share,
+            crate::mesh::isotropic::LONG_NEEDLE_CELLS
+        );
     } else {
         println!();
     }
