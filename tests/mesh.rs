@@ -328,11 +328,44 @@ fn solve_names_the_file_of_every_broken_mesh() {
 /// solved as it is, with a warning. `tests/data/sliver_tjunction.obj` (an icosphere of 642
 /// vertices with a sliver at a T-junction, from a robustness sweep) made the remesher leave
 /// zero-area faces, and `solve` exited with "remeshing the input failed" although
-/// `--keep-input` solved it.
+/// `--keep-input` solved it. A smooth low-poly model is no longer remeshed by itself, so a unit
+/// box whose faces are 4 × 4 grids is added beside it: their flat inner edges make the whole
+/// faceted like a CAD part (`mesh::isotropic::FLAT_EDGE_SHARE`), and the remesh is tried (and
+/// fails as before: the box adds little area, so the remesh's edge length is about the same).
 #[test]
 fn solve_keeps_the_input_when_remeshing_it_by_itself_fails() {
-    let input = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/sliver_tjunction.obj");
+    let sliver = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/sliver_tjunction.obj");
     let dir = tempfile::tempdir().unwrap();
+    let mut text = std::fs::read_to_string(&sliver).unwrap();
+    let n = text.lines().filter(|l| l.starts_with("v ")).count();
+    let corners: Vec<glam::DVec3> = (0..8)
+        .map(|i| glam::DVec3::new(5.0 + (i & 1) as f64, ((i >> 1) & 1) as f64, (i >> 2) as f64))
+        .collect();
+    // The box's quads counter-clockwise from outside, each as two triangles.
+    let triangles: Vec<[u32; 3]> = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ]
+    .iter()
+    .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
+    .collect();
+    let mut cube = quadcover::mesh::TriMesh::from_triangles(corners, triangles).unwrap();
+    for _ in 0..2 {
+        cube = quadcover::mesh::generate::subdivide(&cube);
+    }
+    for p in cube.positions() {
+        text += &format!("v {} {} {}\n", p.x, p.y, p.z);
+    }
+    for f in cube.faces() {
+        let [a, b, c] = f.map(|v| v as usize + n + 1);
+        text += &format!("f {a} {b} {c}\n");
+    }
+    let input = dir.path().join("sliver_and_box.obj");
+    std::fs::write(&input, text).unwrap();
     let (uv, quads) = (dir.path().join("uv.obj"), dir.path().join("quads.obj"));
     let out = quadcover([
         "solve".as_ref(),
