@@ -157,18 +157,19 @@ pub const CREASE_KEPT_FRACTION: f64 = 0.5;
 /// (fandisk at 1500 and 6500 target vertices had one) would leave a sharp edge off the lines.
 pub const FAINT_SHARE: f64 = 0.5;
 
-/// The crease angles of edges at the radius `r` = [`CREASE_CELLS`] `scale` (model units): the faces
-/// within `r` of the edge's midpoint are split between its two faces by their distance through
-/// the surface (centroid to centroid across edges; a face is within `r` when a point of it is),
-/// and the angle between the two sides' area-weighted normals is the edge's crease angle there,
-/// which must still be [`CREASE_KEPT_FRACTION`] of the detection angle. A crease is one at the grid's scale when the
-/// surface keeps its bend half a cell away. What fails are bends narrower than that, which the
-/// grid cannot follow: a ledge a fraction of a cell wide (a boolean union
-/// of a faceted dome and a cylinder leaves one where the polygons differ: two 90° creases
-/// 0.001 apart, each a curve, and the map folded around them: 208 faces, 148 singularities),
-/// a step lower than half a cell, a scan's ridge of noise. A thin plate's rim keeps both
-/// creases (the far side's faces are on the rim's side), and where the input's triangles are
-/// larger than `r` only the edge's own two faces are within it, so nothing changes.
+/// The crease angles of edges at the radius `r` = [`CREASE_CELLS`] `scale` (model units): the
+/// faces within `r` of the edge's midpoint are split between its two faces by their distance
+/// through the surface (centroid to centroid across edges; a face is within `r` when a point of
+/// it is), and the angle between the two sides' area-weighted normals is the edge's crease angle
+/// there, which must still be [`CREASE_KEPT_FRACTION`] of the detection angle. A crease is one at
+/// the grid's scale when the surface keeps its bend half a cell away. What fails are bends
+/// narrower than that, which the grid cannot follow: a ledge a fraction of a cell wide (a
+/// boolean union of a faceted dome and a cylinder leaves one where the polygons differ: two 90°
+/// creases 0.001 apart, each a curve, and the map folded around them: 208 faces, 148
+/// singularities), a step lower than half a cell, a scan's ridge of noise. A thin plate's rim
+/// keeps both creases (the far side's faces are on the rim's side), and where the input's
+/// triangles are larger than `r` only the edge's own two faces are within it, so nothing
+/// changes. Kept per edge, so that the editor's preview measures each edge once.
 #[derive(Debug)]
 pub struct CreaseAngles {
     r: f64,
@@ -280,9 +281,10 @@ fn cone_point(mesh: &TriMesh, vertices: &[usize], defects: &[f64], scale: f64) -
 }
 
 /// Feature edges ([`significant_feature_edges`] at `angle_deg`: sets shorter than
-/// [`MIN_FEATURE_CELLS`] `scale` and those round a cone point dropped) chained into curves, split at junctions of three or
-/// more feature edges, at sharp turns ([`SHARP_TURN_DEG`]) and where a chain meets the
-/// boundary; see the module documentation for the rules.
+/// [`MIN_FEATURE_CELLS`] `scale`, those that no longer bend half a cell away and those round a
+/// cone point dropped) chained into curves, split at junctions of three or more feature edges,
+/// at sharp turns ([`SHARP_TURN_DEG`]) and where a chain meets the boundary; see the module
+/// documentation for the rules.
 /// `scale` (model units, the grid size; 0 for none) is the length over which a turn must also
 /// be sharp.
 pub fn detect_features(mesh: &TriMesh, angle_deg: f64, scale: f64) -> Vec<DetectedCurve> {
