@@ -338,27 +338,9 @@ fn solve_keeps_the_input_when_remeshing_it_by_itself_fails() {
     let dir = tempfile::tempdir().unwrap();
     let mut text = std::fs::read_to_string(&sliver).unwrap();
     let n = text.lines().filter(|l| l.starts_with("v ")).count();
-    let corners: Vec<glam::DVec3> = (0..8)
-        .map(|i| glam::DVec3::new(5.0 + (i & 1) as f64, ((i >> 1) & 1) as f64, (i >> 2) as f64))
-        .collect();
-    // The box's quads counter-clockwise from outside, each as two triangles.
-    let triangles: Vec<[u32; 3]> = [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ]
-    .iter()
-    .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
-    .collect();
-    let mut cube = quadcover::mesh::TriMesh::from_triangles(corners, triangles).unwrap();
-    for _ in 0..2 {
-        cube = quadcover::mesh::generate::subdivide(&cube);
-    }
+    let cube = quadcover::mesh::generate::cube(2);
     for p in cube.positions() {
-        text += &format!("v {} {} {}\n", p.x, p.y, p.z);
+        text += &format!("v {} {} {}\n", p.x + 5.0, p.y, p.z);
     }
     for f in cube.faces() {
         let [a, b, c] = f.map(|v| v as usize + n + 1);

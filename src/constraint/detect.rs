@@ -517,37 +517,12 @@ mod tests {
     use crate::constraint::{check_path, halfedge_between};
     use crate::mesh::generate;
 
-    /// The unit cube's 12 triangles (outward normals), subdivided `levels` times.
-    fn cube(levels: usize) -> TriMesh {
-        let p: Vec<DVec3> = (0..8)
-            .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64))
-            .collect();
-        // Quads counter-clockwise seen from outside.
-        let quads = [
-            [0, 2, 3, 1], // z = 0
-            [4, 5, 7, 6], // z = 1
-            [0, 1, 5, 4], // y = 0
-            [2, 6, 7, 3], // y = 1
-            [0, 4, 6, 2], // x = 0
-            [1, 3, 7, 5], // x = 1
-        ];
-        let t: Vec<[u32; 3]> = quads
-            .iter()
-            .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
-            .collect();
-        let mut m = TriMesh::from_triangles(p, t).unwrap();
-        for _ in 0..levels {
-            m = generate::subdivide(&m);
-        }
-        m
-    }
-
     /// Sets of feature edges shorter than the minimum length go, whole; longer ones stay whole.
     #[test]
     fn short_feature_sets_are_dropped_whole() {
         // The cube's twelve creases (one connected set, length 12) and a spike on the top face
         // (a vertex raised far out of it: a small set of its own).
-        let mut m = cube(3);
+        let mut m = generate::cube(3);
         let top = (0..m.n_vertices())
             .find(|&v| (m.position(v) - DVec3::new(0.5, 0.5, 1.0)).length() < 1e-9)
             .unwrap();
@@ -614,7 +589,7 @@ mod tests {
         assert_eq!(significant_feature_edges(&step, 40.0, 0.002), all);
         // A plate 1 × 1 × 0.01 (the cube flattened): its 96 crease edges stay at cells of 0.1,
         // the far face lying on the rim's side of each crease.
-        let c = cube(3);
+        let c = generate::cube(3);
         let p: Vec<DVec3> = c
             .positions()
             .iter()
@@ -661,7 +636,7 @@ mod tests {
         assert_eq!(curves.len(), 1);
         assert!(curves[0].closed);
         // A box's corners are no cone points.
-        let c = cube(2);
+        let c = generate::cube(2);
         assert_eq!(significant_feature_edges(&c, 40.0, 0.1).len(), 48);
     }
 
@@ -738,7 +713,7 @@ mod tests {
 
     #[test]
     fn cube_edges_are_twelve_curves() {
-        let m = cube(2);
+        let m = generate::cube(2);
         let fe = feature_edges(&m, 40.0);
         assert_eq!(fe.len(), 12 * 4);
         let curves = detect_features(&m, 40.0, 0.0);
@@ -771,7 +746,7 @@ mod tests {
 
     #[test]
     fn unsubdivided_cube_edges_are_single_edge_curves() {
-        let m = cube(0);
+        let m = generate::cube(0);
         let curves = detect_features(&m, 40.0, 0.0);
         assert_eq!(curves.len(), 12);
         assert!(curves.iter().all(|c| !c.closed && c.vertices.len() == 2));
@@ -949,7 +924,7 @@ mod tests {
         assert!(curves.iter().all(|c| c.closed && c.vertices.len() == 12));
         assert_covers(&m, &curves, &boundary_edges(&m));
         // A closed mesh has no boundary curves.
-        assert!(boundary_curves(&cube(1), 0.0).is_empty());
+        assert!(boundary_curves(&generate::cube(1), 0.0).is_empty());
     }
 
     #[test]
