@@ -147,22 +147,32 @@ pub fn prepared_options(
 
 /// The share of `mesh`'s area in triangles whose smallest angle is below [`NEEDLE_DEG`].
 pub fn needle_area_share(mesh: &TriMesh) -> f64 {
-    let (mut needles, mut total) = (0.0, 0.0);
+    area_share(mesh, |f| is_needle(mesh, f))
+}
+
+/// Whether face `f`'s smallest angle is below [`NEEDLE_DEG`]; a NaN angle (a degenerate
+/// triangle) counts as a needle.
+fn is_needle(mesh: &TriMesh, f: usize) -> bool {
+    let min = (0..3)
+        .map(|k| mesh.corner_angle(3 * f + k))
+        .fold(f64::INFINITY, f64::min);
+    min.to_degrees() < NEEDLE_DEG || min.is_nan()
+}
+
+/// The share of `mesh`'s area (faces of finite area) in the faces `chosen` picks.
+fn area_share(mesh: &TriMesh, chosen: impl Fn(usize) -> bool) -> f64 {
+    let (mut picked, mut total) = (0.0, 0.0);
     for f in 0..mesh.n_faces() {
         let a = mesh.face_area(f);
         if !a.is_finite() {
             continue;
         }
         total += a;
-        let min = (0..3)
-            .map(|k| mesh.corner_angle(3 * f + k))
-            .fold(f64::INFINITY, f64::min);
-        // a NaN angle (a degenerate triangle) counts as a needle
-        if min.to_degrees() < NEEDLE_DEG || min.is_nan() {
-            needles += a;
+        if chosen(f) {
+            picked += a;
         }
     }
-    if total > 0.0 { needles / total } else { 0.0 }
+    if total > 0.0 { picked / total } else { 0.0 }
 }
 
 /// Triangles around a vertex from which it is a fan centre ([`fan_centres`]).
@@ -231,19 +241,12 @@ pub fn long_needles(
     let total = mesh.total_area();
     let h = (total / (crate::field::density::cell_area(symmetry) * grid)).sqrt();
     let long = LONG_NEEDLE_CELLS * h;
-    let area: f64 = (0..mesh.n_faces())
-        .filter(|&f| {
-            let corners = (0..3).map(|k| mesh.corner_angle(3 * f + k));
-            let min = corners.fold(f64::INFINITY, f64::min);
-            let longest = (0..3)
-                .map(|k| mesh.vector(3 * f + k).length())
-                .fold(0.0, f64::max);
-            (min.to_degrees() < NEEDLE_DEG || min.is_nan()) && longest > long
-        })
-        .map(|f| mesh.face_area(f))
-        .filter(|a| a.is_finite())
-        .sum();
-    let share = area / total;
+    let longest = |f: usize| {
+        (0..3)
+            .map(|k| mesh.vector(3 * f + k).length())
+            .fold(0.0, f64::max)
+    };
+    let share = area_share(mesh, |f| is_needle(mesh, f) && longest(f) > long);
     (share > LONG_NEEDLE_AREA_SHARE).then_some(share)
 }
 
