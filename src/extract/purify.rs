@@ -560,19 +560,9 @@ mod tests {
     /// on the same sphere (Euler characteristic 2).
     #[test]
     fn odd_faces_of_a_closed_surface_are_paired() {
-        let p: Vec<DVec3> = (0..8)
-            .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, (i >> 2) as f64))
-            .collect();
+        let p = crate::mesh::generate::cube_corners();
         // Cube faces (outward, counter-clockwise), then vertex 7 merged into 6.
-        let cube = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        let faces: Vec<Vec<u32>> = cube
+        let faces: Vec<Vec<u32>> = crate::mesh::generate::CUBE_QUADS
             .iter()
             .map(|f| {
                 let mut g: Vec<u32> = f.iter().map(|&v| if v == 7 { 6 } else { v }).collect();

@@ -372,25 +372,31 @@ pub fn icosphere(levels: usize) -> TriMesh {
     m
 }
 
+/// The unit cube's corners: corner `i` at (bit 0, bit 1, bit 2) of `i`.
+pub fn cube_corners() -> Vec<DVec3> {
+    (0..8)
+        .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64))
+        .collect()
+}
+
+/// The unit cube's faces over [`cube_corners`], counter-clockwise seen from outside: z = 0,
+/// z = 1, y = 0, y = 1, x = 0, x = 1.
+pub const CUBE_QUADS: [[u32; 4]; 6] = [
+    [0, 2, 3, 1],
+    [4, 5, 7, 6],
+    [0, 1, 5, 4],
+    [2, 6, 7, 3],
+    [0, 4, 6, 2],
+    [1, 3, 7, 5],
+];
+
 /// The unit cube [0, 1]³ as 12 triangles (outward normals), subdivided `levels` times.
 pub fn cube(levels: usize) -> TriMesh {
-    let p: Vec<DVec3> = (0..8)
-        .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64))
-        .collect();
-    // Quads counter-clockwise seen from outside: z = 0, z = 1, y = 0, y = 1, x = 0, x = 1.
-    let quads = [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ];
-    let t: Vec<[u32; 3]> = quads
+    let t: Vec<[u32; 3]> = CUBE_QUADS
         .iter()
         .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
         .collect();
-    let mut m = TriMesh::from_triangles(p, t).expect("a closed cube");
+    let mut m = TriMesh::from_triangles(cube_corners(), t).expect("a closed cube");
     for _ in 0..levels {
         m = subdivide(&m);
     }
